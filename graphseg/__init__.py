@@ -1,0 +1,34 @@
+"""graphseg: consistent, object-level 3D segments from a few RGB(-D) views.
+
+Implements GraphSeg (Tang et al., 2025): masks become nodes of a correspondence
+graph, 2D pixel matches and 3D Chamfer proximity add edges, and contraction
+turns connected masks into objects consistent across views.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__version__ = "0.1.0"
+
+__all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result"]
+
+
+def __getattr__(name: str) -> Any:  # lazy top-level API (PEP 562)
+    if name in ("Scene", "View", "Matches"):
+        from . import scene
+
+        return getattr(scene, name)
+    if name == "segment":
+        from .method.segment import segment
+
+        return segment
+    if name == "Config":
+        from .config import Config
+
+        return Config
+    if name == "Result":
+        from .result import Result
+
+        return Result
+    raise AttributeError(f"module 'graphseg' has no attribute {name!r}")

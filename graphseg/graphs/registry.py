@@ -1,0 +1,27 @@
+"""Registries of edge adders and contractors (entry-point groups
+``graphseg.edge_adders`` and ``graphseg.contractors``).
+
+Examples
+--------
+>>> "pixel_match" in edge_adders.names() and "star" in contractors.names()
+True
+>>> type(contractors.resolve("union_find")).__name__
+'UnionFindContraction'
+"""
+
+from __future__ import annotations
+
+from ..registry import Registry
+
+__all__ = ["edge_adders", "contractors"]
+
+edge_adders = Registry("edge adder", group="graphseg.edge_adders")
+edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatchEdgeAdder")
+edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3DEdgeAdder")
+edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
+edge_adders.register("dino_similarity", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
+
+contractors = Registry("contractor", group="graphseg.contractors")
+contractors.register("star", "graphseg.graphs.contract:StarContraction")
+contractors.register("union_find", "graphseg.graphs.contract:UnionFindContraction")
+contractors.register("scipy", "graphseg.graphs.contract:ScipyContraction")

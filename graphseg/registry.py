@@ -1,0 +1,238 @@
+"""Plugin registries: built-ins by name, third-party plugins by entry point.
+
+A :class:`Registry` maps names to plugin classes. Built-ins are recorded as
+``"module:Attr"`` strings and imported only when first asked for; third-party
+plugins are discovered through an entry-point group (for example
+``graphseg.edge_adders``) and loaded lazily too. :meth:`Registry.resolve`
+accepts a name, a class or an instance, so every public function can take any
+of the three.
+
+Examples
+--------
+>>> reg = Registry("thing", group="graphseg.no_such_group")
+>>> reg.register("counter", "collections:Counter")
+>>> reg.get("counter").__name__
+'Counter'
+>>> reg.resolve("counter")
+Counter()
+>>> try:
+...     reg.get("nope")
+... except PluginNotFoundError as err:
+...     print(err)
+unknown thing 'nope'; installed choices: counter
+"""
+
+from __future__ import annotations
+
+import importlib
+import warnings
+from collections.abc import Callable
+from importlib.metadata import EntryPoint, entry_points
+from typing import Any
+
+__all__ = ["Registry", "PluginNotFoundError", "PluginLoadWarning", "MissingDependencyError", "require"]
+
+
+class PluginNotFoundError(LookupError):
+    """Raised when a plugin name is unknown; the message lists the installed choices."""
+
+
+class PluginLoadWarning(RuntimeWarning):
+    """Warned when a registered plugin fails to import."""
+
+
+class MissingDependencyError(ImportError):
+    """Raised when an optional dependency is missing; the message names the extra."""
+
+
+def require(module: str, extra: str) -> Any:
+    """Import an optional dependency or fail with the pip command that installs it.
+
+    Parameters
+    ----------
+    module : str
+        Module to import, for example ``"torch"``.
+    extra : str
+        The graphseg extra that provides it, for example ``"torch"``.
+
+    Returns
+    -------
+    module
+        The imported module.
+
+    Raises
+    ------
+    MissingDependencyError
+        If the import fails.
+
+    Examples
+    --------
+    >>> require("json", "none").__name__
+    'json'
+    >>> try:
+    ...     require("no_such_module_xyz", "onnx")
+    ... except MissingDependencyError as err:
+    ...     print(err)
+    this feature needs 'no_such_module_xyz': pip install "graphseg[onnx]"
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError as err:
+        raise MissingDependencyError(
+            f"this feature needs '{module}': pip install \"graphseg[{extra}]\""
+        ) from err
+
+
+def _load_target(target: str) -> Any:
+    mod_name, _, attr = target.partition(":")
+    obj: Any = importlib.import_module(mod_name)
+    for part in attr.split(".") if attr else []:
+        obj = getattr(obj, part)
+    return obj
+
+
+class Registry:
+    """A lazily loading name -> plugin map backed by built-ins and entry points.
+
+    Parameters
+    ----------
+    kind : str
+        What the plugins are, used in messages (``"edge adder"``).
+    group : str
+        Entry-point group scanned for third-party plugins.
+
+    Notes
+    -----
+    Entry points are listed (not imported) on the first lookup. A plugin is
+    imported the first time it is asked for; one that fails to import warns with
+    :class:`PluginLoadWarning` and is then reported as unavailable.
+    """
+
+    def __init__(self, kind: str, group: str) -> None:
+        self.kind = kind
+        self.group = group
+        self._targets: dict[str, str | Any] = {}
+        self._entry_points: dict[str, EntryPoint] | None = None
+        self._loaded: dict[str, Any] = {}
+        self._failed: dict[str, str] = {}
+
+    def __repr__(self) -> str:
+        return f"Registry({self.kind!r}, group={self.group!r}, names={self.names()})"
+
+    def register(self, name: str, target: str | Any | None = None) -> Any:
+        """Register ``target`` (a ``"module:Attr"`` string or an object) under ``name``.
+
+        Used without ``target`` it returns a class decorator.
+        """
+        if target is None:
+
+            def deco(obj: Any) -> Any:
+                self.register(name, obj)
+                return obj
+
+            return deco
+        self._targets[name] = target
+        self._loaded.pop(name, None)
+        self._failed.pop(name, None)
+        return None
+
+    def _eps(self) -> dict[str, EntryPoint]:
+        if self._entry_points is None:
+            found: dict[str, EntryPoint] = {}
+            try:
+                for ep in entry_points(group=self.group):
+                    found.setdefault(ep.name, ep)
+            except Exception as err:  # pragma: no cover - broken metadata
+                warnings.warn(f"could not list entry points of {self.group}: {err}", PluginLoadWarning, stacklevel=3)
+            self._entry_points = found
+        return self._entry_points
+
+    def refresh(self) -> None:
+        """Forget the entry points seen so far and scan them again on next use."""
+        self._entry_points = None
+        for name in list(self._loaded):
+            if name not in self._targets:
+                del self._loaded[name]
+        self._failed.clear()
+
+    def names(self) -> list[str]:
+        """Names of all registered plugins (built-ins first), without importing them."""
+        names = list(self._targets)
+        names += [n for n in self._eps() if n not in self._targets]
+        return names
+
+    def available(self) -> list[str]:
+        """Names minus the plugins that failed to import so far."""
+        return [n for n in self.names() if n not in self._failed]
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and name in self.names()
+
+    def _not_found(self, name: str) -> PluginNotFoundError:
+        choices = ", ".join(self.available()) or "(none)"
+        msg = f"unknown {self.kind} {name!r}; installed choices: {choices}"
+        if name in self._failed:
+            msg = f"{self.kind} {name!r} failed to load ({self._failed[name]}); installed choices: {choices}"
+        return PluginNotFoundError(msg)
+
+    def get(self, name: str) -> Any:
+        """Return the plugin object (usually a class) registered as ``name``.
+
+        Raises
+        ------
+        PluginNotFoundError
+            If ``name`` is unknown or failed to load; the message lists the choices.
+        """
+        if name in self._loaded:
+            return self._loaded[name]
+        if name in self._failed:
+            raise self._not_found(name)
+        target: Any
+        if name in self._targets:
+            target = self._targets[name]
+        elif name in self._eps():
+            target = self._eps()[name]
+        else:
+            raise self._not_found(name)
+        try:
+            if isinstance(target, EntryPoint):
+                obj = target.load()
+            elif isinstance(target, str):
+                obj = _load_target(target)
+            else:
+                obj = target
+        except MissingDependencyError:
+            raise
+        except Exception as err:
+            self._failed[name] = f"{type(err).__name__}: {err}"
+            warnings.warn(
+                f"{self.kind} plugin {name!r} failed to load: {self._failed[name]}",
+                PluginLoadWarning,
+                stacklevel=2,
+            )
+            raise self._not_found(name) from err
+        self._loaded[name] = obj
+        return obj
+
+    def resolve(self, spec: str | type | Any, **kwargs: Any) -> Any:
+        """Turn a name, a class or an instance into an instance.
+
+        Parameters
+        ----------
+        spec : str, type or object
+            A registered name, a plugin class (instantiated with ``kwargs``) or a
+            ready instance (returned unchanged; ``kwargs`` must then be empty).
+        **kwargs
+            Constructor arguments for names and classes.
+        """
+        if isinstance(spec, str):
+            spec = self.get(spec)
+        if isinstance(spec, type) or (callable(spec) and not hasattr(spec, "__self__") and _is_factory(spec)):
+            return spec(**kwargs)
+        if kwargs:
+            raise TypeError(f"cannot apply options {sorted(kwargs)} to an existing {self.kind} instance")
+        return spec
+
+
+def _is_factory(obj: Callable[..., Any]) -> bool:
+    return bool(getattr(obj, "_graphseg_factory", False))

@@ -1,0 +1,1 @@
+"""Helpers for graphseg's own test suite (plugins registered through entry points)."""

@@ -1,0 +1,197 @@
+import numpy as np
+import pytest
+
+from graphseg.graphs import (
+    Chamfer3DEdgeAdder,
+    CorrespondenceGraph,
+    Evidence,
+    FeatureSimilarityEdgeAdder,
+    PixelMatchEdgeAdder,
+    chamfer_edges,
+    directed_chamfer,
+    node_mean_features,
+    node_point_sets,
+    pair_counts,
+    pixel_match_edges,
+    remove_outliers,
+)
+from graphseg.scene import Matches
+
+
+def test_pair_counts_dense_and_sparse_agree():
+    rng = np.random.default_rng(0)
+    a, b = rng.integers(0, 50, 1000), rng.integers(0, 50, 1000)
+    u1, v1, c1 = pair_counts(a, b, 50)
+    u2, v2, c2 = pair_counts(a, b, 100_000)  # forces the sort path (values < 50 anyway)
+    assert np.array_equal(u1, u2) and np.array_equal(v1, v2) and np.array_equal(c1, c2)
+    assert c1.sum() == 1000
+    z = pair_counts(np.zeros(0, int), np.zeros(0, int), 10**6)
+    assert all(x.size == 0 for x in z)
+
+
+def two_view_labels():
+    # view 0: masks 0 (left half) and 1 (right half); view 1: masks 2 and 3, same layout
+    l0 = np.zeros((4, 8), np.int64)
+    l0[:, 4:] = 1
+    l1 = l0 + 2
+    return [l0, l1]
+
+
+def test_pixel_match_hand_computed_ratio_and_threshold():
+    labels = two_view_labels()
+    # 8 matches left->left, 2 matches right->right, 1 left->right
+    xy = np.array([[0, 0]] * 8 + [[5, 0]] * 2 + [[1, 1]], float)
+    xy2 = np.array([[0, 1]] * 8 + [[6, 1]] * 2 + [[7, 3]], float)
+    m = {(0, 1): Matches(xy, xy2, np.ones(11))}
+    areas = np.array([16, 16, 16, 16])
+    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.1)
+    got = {(int(u), int(v)): r for u, v, r in zip(*es.edge_index, es.edge_attr["ratio"])}
+    assert got == {(0, 2): 0.5, (1, 3): 0.125}
+    assert es.edge_attr["count"].tolist() == [8, 2]
+    # percentile threshold: 78th percentile of [1/16, 2/16, 8/16]
+    es = pixel_match_edges(labels, m, 4, areas=areas)
+    assert es.info["tau"] == pytest.approx(np.percentile([1 / 16, 2 / 16, 8 / 16], 78))
+    assert es.edge_index.T.tolist() == [[0, 2]]
+    # official normalisation: hits of mask 0 = 9, mask 2 = 8 -> 8 / 8
+    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.0, normalization="hits")
+    got = {(int(u), int(v)): r for u, v, r in zip(*es.edge_index, es.edge_attr["ratio"])}
+    assert got[(0, 2)] == 1.0 and got[(0, 3)] == pytest.approx(1 / 3)
+    with pytest.raises(ValueError, match="normalization"):
+        pixel_match_edges(labels, m, 4, areas=areas, normalization="x")
+
+
+def test_pixel_match_consistency_uses_each_images_own_pixel():
+    labels = two_view_labels()
+    p0 = np.zeros((4, 8, 3), np.float32)
+    p1 = np.zeros((4, 8, 3), np.float32)
+    p1[:, 4:] = 5.0  # right half of view 1 is far away in 3D from everything in view 0
+    xy = np.array([[0, 0]] * 9 + [[5, 0]], float)
+    xy2 = np.array([[0, 0]] * 9 + [[5, 0]], float)
+    m = {(0, 1): Matches(xy, xy2, np.ones(10))}
+    es = pixel_match_edges(labels, m, 4, areas=np.full(4, 16), tau=0.0, points=[p0, p1], consistency_percentile=90)
+    assert es.edge_index.T.tolist() == [[0, 2]]  # the inconsistent right->right match was dropped
+    with pytest.raises(ValueError, match="needs world points"):
+        pixel_match_edges(labels, m, 4, areas=np.full(4, 16), consistency_percentile=90)
+
+
+def test_pixel_match_out_of_image_and_empty():
+    labels = two_view_labels()
+    m = {(0, 1): Matches([[100, 100]], [[0, 0]], [1.0]), (1, 0): Matches(np.zeros((0, 2)), np.zeros((0, 2)), [])}
+    es = pixel_match_edges(labels, m, 4, areas=np.full(4, 16))
+    assert es.num_edges == 0 and es.info["tau"] == np.inf
+
+
+def test_pixel_match_large_input_is_vectorised():
+    rng = np.random.default_rng(0)
+    labels = [rng.integers(-1, 100, (480, 640)) + 100 * v for v in range(2)]
+    labels = [np.where(lab < 100 * v, -1, lab) for v, lab in enumerate(labels)]
+    n = 200
+    m = {(0, 1): Matches(rng.uniform(0, 639, (500_000, 2)), rng.uniform(0, 479, (500_000, 2)), np.ones(500_000))}
+    import time
+
+    t = time.perf_counter()
+    es = pixel_match_edges(labels, m, n, areas=np.full(n, 3000))
+    assert time.perf_counter() - t < 5.0  # a Python loop over 500k matches would take far longer
+    assert es.num_edges > 0
+
+
+def test_node_point_sets_voxel_and_stride():
+    lab = np.array([[0, 0, 1, -1]])
+    pts = np.array([[[0, 0, 0], [0.001, 0, 0], [1, 1, 1], [2, 2, 2]]], np.float32)
+    ps = node_point_sets([lab], [pts], 2)
+    assert ps.ptr.tolist() == [0, 2, 3] and ps.points.shape == (3, 3)
+    ps = node_point_sets([lab], [pts], 2, voxel_size=0.01, colors=[np.full((1, 4, 3), 7, np.uint8)])
+    assert ps.ptr.tolist() == [0, 1, 2]
+    np.testing.assert_allclose(ps[0], [[0.0005, 0, 0]])
+    assert ps.colors.tolist() == [[7, 7, 7], [7, 7, 7]]
+    ps = node_point_sets([lab], [pts], 2, stride=2)
+    assert ps.ptr.tolist() == [0, 1, 2]
+    assert node_point_sets([lab], [None], 2).points.shape == (0, 3)
+
+
+def test_directed_chamfer_hand_computed():
+    x = np.array([[0.0, 0, 0], [0, 0, 2]])
+    y = np.array([[0.0, 0, 1]])
+    assert directed_chamfer(x, y) == pytest.approx(1.0)
+    assert directed_chamfer(y, x) == pytest.approx(1.0)
+    assert directed_chamfer(np.zeros((0, 3)), y) == np.inf
+    assert directed_chamfer(x, y, upper=0.01) == np.inf  # early exit
+
+
+def grid_object(center, n=6, spacing=0.004):
+    g = np.stack(np.meshgrid(*[np.arange(n) * spacing] * 3, indexing="ij"), -1).reshape(-1, 3)
+    return g + np.asarray(center)
+
+
+def test_chamfer_edges_pruned_equals_brute_force():
+    rng = np.random.default_rng(0)
+    from graphseg.graphs.chamfer import PointSets
+
+    objs = [grid_object(rng.uniform(0, 0.3, 3)) for _ in range(25)]
+    pts = np.concatenate(objs)
+    ptr = np.r_[0, np.cumsum([len(o) for o in objs])]
+    sets = PointSets(pts, ptr)
+    a = chamfer_edges(sets, 5e-4, prune=True)
+    b = chamfer_edges(sets, 5e-4, prune=False)
+    assert a.edge_index.T.tolist() == b.edge_index.T.tolist()
+    assert a.info["candidates"] <= b.info["candidates"]
+    # brute force reference
+    from scipy.spatial.distance import cdist
+
+    ref = set()
+    for i in range(25):
+        for j in range(i + 1, 25):
+            d = cdist(objs[i], objs[j], "sqeuclidean")
+            if min(d.min(1).mean(), d.min(0).mean()) <= 5e-4:
+                ref.add((i, j))
+    assert {tuple(e) for e in a.edge_index.T.tolist()} == ref
+
+
+def test_chamfer_adder_and_outliers():
+    lab = np.array([[0, 0, 1, 1, 2]])
+    pts = np.array([[[0, 0, 0], [0.002, 0, 0], [0.004, 0, 0], [0.006, 0, 0], [1, 1, 1]]], np.float32)
+    g = CorrespondenceGraph(3, node_attr={"area": [2, 2, 1]})
+    es = Chamfer3DEdgeAdder(voxel_size=None)(g, Evidence([lab], points=[pts]))
+    assert es.edge_index.T.tolist() == [[0, 1]]
+    assert es.edge_attr["criterion"].tolist() == ["chamfer_3d"]
+    with pytest.raises(ValueError, match="needs world points"):
+        Chamfer3DEdgeAdder()(g, Evidence([lab]))
+
+
+def test_remove_outliers_statistical_and_dbscan():
+    from graphseg.graphs.chamfer import PointSets
+
+    rng = np.random.default_rng(0)
+    blob = rng.normal(0, 0.005, (200, 3))
+    pts = np.concatenate([blob, [[1.0, 1, 1]]])
+    sets = PointSets(pts, np.array([0, 201]))
+    assert len(remove_outliers(sets, "statistical").points) <= 200
+    out = remove_outliers(sets, "dbscan", eps=0.01, min_samples=3)
+    assert not np.any(np.all(out.points == 1.0, axis=1))
+    assert remove_outliers(sets, None) is sets
+    with pytest.raises(ValueError, match="unknown outlier method"):
+        remove_outliers(sets, "magic")
+
+
+def test_feature_similarity():
+    lab = [np.array([[0, 0, 1, 1]]), np.array([[2, 2, -1, -1]])]
+    feats = [np.array([[[1.0, 0], [1, 0], [0, 1], [0, 1]]]), np.array([[[1.0, 0.1], [1, 0.1], [0, 0], [0, 0]]])]
+    nf = node_mean_features(lab, feats, 3)
+    np.testing.assert_allclose(nf, [[1, 0], [0, 1], [1, 0.1]])
+    g = CorrespondenceGraph(3, node_attr={"view": np.array([0, 0, 1])})
+    es = FeatureSimilarityEdgeAdder(threshold=0.9)(g, Evidence(lab, features=feats))
+    assert es.edge_index.T.tolist() == [[0, 2]]
+    es = FeatureSimilarityEdgeAdder(threshold=0.9)(g, Evidence(lab, features=nf))
+    assert es.num_edges == 1
+    with pytest.raises(ValueError, match="needs features"):
+        FeatureSimilarityEdgeAdder()(g, Evidence(lab))
+    with pytest.raises(ValueError, match=r"expected node features of shape \[3, D\]"):
+        FeatureSimilarityEdgeAdder()(g, Evidence(lab, features=np.ones((2, 2))))
+
+
+def test_pixel_match_adder_class():
+    labels = two_view_labels()
+    g = CorrespondenceGraph(4, node_attr={"area": np.full(4, 16)})
+    m = {(0, 1): Matches([[0, 0]], [[0, 0]], [1.0])}
+    es = PixelMatchEdgeAdder(tau=0.01)(g, Evidence(labels, matches=m))
+    assert es.edge_index.T.tolist() == [[0, 2]]
