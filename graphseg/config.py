@@ -46,6 +46,9 @@ class BackgroundConfig(_Model):
     enabled: bool = True
     plane: bool = Field(True, description="fit the table plane by RANSAC and make it background")
     plane_tolerance: float = Field(0.01, gt=0, description="metres from the plane that count as plane")
+    plane_normal_angle: float | None = Field(
+        0.6, gt=0, description="radians; a pixel in the plane band is background only if its surface normal is within this angle of the plane normal (keeps the bottom of objects); None = band only"
+    )
     below_plane: bool = Field(True, description="points on the far side of the plane (from the cameras) are background")
     ransac_iterations: int = Field(256, ge=1)
     ransac_sample: int = Field(50_000, ge=100, description="points sampled for RANSAC")
@@ -77,8 +80,8 @@ class PixelMatchConfig(_Model):
 
     tau: float | None = Field(None, description="absolute ratio threshold; None: percentile")
     percentile: float = Field(78.0, ge=0, le=100)
-    normalization: Literal["area", "hits"] = "area"
-    min_matches: int = Field(1, ge=1)
+    normalization: Literal["area", "hits", "pair_hits"] = "area"
+    min_matches: int = Field(3, ge=1, description="pairs sharing fewer matches get no edge and do not count toward the percentile (1 = the paper's rule)")
     consistency_percentile: float | None = Field(None, ge=0, le=100)
 
 
@@ -102,7 +105,8 @@ class DinoConfig(_Model):
 class OutputConfig(_Model):
     """What the result keeps."""
 
-    voxel_size: float | None = Field(0.002, description="object clouds are voxel-downsampled to this size (metres)")
+    voxel_size: float | None = Field(0.003, description="object clouds are voxel-downsampled to this size (metres)")
+    stride: int = Field(2, ge=1, description="pixel stride when gathering the object clouds")
 
 
 class BackendConfig(_Model):

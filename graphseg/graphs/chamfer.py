@@ -112,7 +112,7 @@ def node_point_sets(
     ([0, 1, 2], (1, 3))
     """
     nodes, pts, cols = [], [], []
-    for v, lab in enumerate(node_labels):
+    for v, lab in enumerate(node_labels):  # loop over views only
         p = points[v]
         if p is None:
             continue
@@ -124,20 +124,20 @@ def node_point_sets(
         ok = np.isfinite(pp).all(1)
         idx, pp = idx[ok], pp[ok]
         nodes.append(lab_s[idx].astype(np.int64))
-        pts.append(pp.astype(np.float64))
+        pts.append(pp.astype(np.float32))
         if colors is not None:
             cols.append(np.asarray(colors[v])[::stride, ::stride].reshape(-1, 3)[idx])
     if not nodes:
         return PointSets(np.zeros((0, 3)), np.zeros(num_nodes + 1, np.int64), np.zeros((0, 3), np.uint8) if colors is not None else None)
     node = np.concatenate(nodes)
-    P = np.concatenate(pts)
+    P = np.concatenate(pts)  # float32 while sorting; means come out float64
     C = np.concatenate(cols) if colors is not None else None
     if voxel_size is not None and voxel_size > 0 and node.size:
         ijk = np.floor((P - P.min(0)) / voxel_size).astype(np.int64)
         ext = ijk.max(0) + 1
         if float(num_nodes) * float(np.prod(ext.astype(np.float64))) < 2**62:
             key = ((node * ext[0] + ijk[:, 0]) * ext[1] + ijk[:, 1]) * ext[2] + ijk[:, 2]
-            order = np.argsort(key, kind="stable")
+            order = np.argsort(key)  # order within a voxel does not matter (means)
             skey = key[order]
         else:  # pragma: no cover - astronomically large scenes
             order = np.lexsort((ijk[:, 2], ijk[:, 1], ijk[:, 0], node))
@@ -155,7 +155,7 @@ def node_point_sets(
         node = node[order][new]
     else:
         order = np.argsort(node, kind="stable")
-        node, P = node[order], P[order]
+        node, P = node[order], P[order].astype(np.float64)
         C = None if C is None else C[order]
     ptr = np.zeros(num_nodes + 1, np.int64)
     ptr[1:] = np.cumsum(np.bincount(node, minlength=num_nodes))
@@ -273,6 +273,41 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, max_gap: float) -> np.ndarr
     return np.concatenate(out, 1) if out else np.zeros((2, 0), np.int64)
 
 
+def _batched_directed(sets: PointSets, src: np.ndarray, dst: np.ndarray, tau: float) -> np.ndarray:
+    """``D(sets[src[e]], sets[dst[e]])`` for every e, one k-d tree query per distinct ``dst``.
+
+    Pairs whose mean squared distance to the target's bounding box (a lower
+    bound of D) exceeds ``tau`` are never queried. Queries are bounded by
+    ``sqrt(tau * |X|)``: a single point farther than that already makes the
+    mean exceed ``tau``, so such pairs come back as inf.
+    """
+    out = np.full(src.size, np.inf)
+    order = np.argsort(dst, kind="stable")
+    bounds = np.flatnonzero(np.r_[True, dst[order][1:] != dst[order][:-1], True])
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        idx = order[a:b]
+        target_pts = sets[int(dst[idx[0]])]
+        lo, hi = target_pts.min(0), target_pts.max(0)
+        chunks = [sets[int(s)] for s in src[idx]]
+        lens = np.array([len(c) for c in chunks])
+        x = np.concatenate(chunks)
+        starts = np.r_[0, np.cumsum(lens)[:-1]]
+        # lower bound: squared distance of each x to the target's bounding box
+        gap = np.maximum(0.0, np.maximum(lo - x, x - hi))
+        lower = np.add.reduceat(np.einsum("ij,ij->i", gap, gap), starts) / lens
+        live = lower <= tau
+        if not live.any():
+            continue
+        keep_pts = np.repeat(live, lens)
+        x, lens = x[keep_pts], lens[live]
+        starts = np.r_[0, np.cumsum(lens)[:-1]]
+        bound = float(np.sqrt(tau * lens.max())) * (1 + 1e-9)
+        dd, _ = cKDTree(target_pts).query(x, k=1, distance_upper_bound=bound)
+        means = np.add.reduceat(dd * dd, starts) / lens
+        out[idx[live]] = np.where(np.isfinite(means), means, np.inf)
+    return out
+
+
 def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> EdgeSet:
     """Edges between nodes with ``min(D(X, Y), D(Y, X)) <= tau``.
 
@@ -315,26 +350,22 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
         a, b = np.triu_indices(nonempty.size, 1)
         cand = np.stack([a, b])
     cand = nonempty[cand]
-    trees: dict[int, cKDTree] = {}
-
-    def tree(n: int) -> cKDTree:
-        if n not in trees:
-            trees[n] = cKDTree(sets[n])
-        return trees[n]
-
-    us, vs, ds = [], [], []
-    for u, v in cand.T.tolist():
-        small, big = (u, v) if sizes[u] <= sizes[v] else (v, u)
-        d = directed_chamfer(sets[small], tree(big), upper=tau)
-        if d > tau:
-            d = min(d, directed_chamfer(sets[big], tree(small), upper=tau))
-        if d <= tau:
-            us.append(u)
-            vs.append(v)
-            ds.append(d)
-    dist = np.asarray(ds, np.float64)
+    if cand.shape[1] == 0:
+        us = vs = np.zeros(0, np.int64)
+        dist = np.zeros(0)
+    else:
+        # D(small -> big) for every candidate, batched: one tree query per target node
+        small = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[0], cand[1])
+        big = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[1], cand[0])
+        d = _batched_directed(sets, small, big, tau)
+        retry = d > tau
+        if retry.any():  # the other direction only where the first failed
+            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau))
+        ok = d <= tau
+        us, vs, dist = cand[0][ok], cand[1][ok], d[ok]
+    dist = np.asarray(dist, np.float64)
     return EdgeSet(
-        np.array([us, vs], np.int64).reshape(2, -1),
+        np.stack([us, vs]).astype(np.int64).reshape(2, -1),
         {"criterion": np.full(len(us), "chamfer_3d"), "distance": dist, "weight": 1.0 / (1.0 + dist / tau)},
         {"candidates": int(cand.shape[1]), "tau": tau},
     )

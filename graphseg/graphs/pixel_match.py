@@ -9,7 +9,8 @@ pixel in view j lies in ``m2``. The paper's ratio is::
 and an edge is added when ``r >= tau_2D``; ``tau_2D`` is either absolute or a
 percentile of all non-zero ratios (default: the 78th percentile). The official
 code normalised instead by the number of matched hits that fall in each mask,
-``h / min(hits(m1), hits(m2))`` (``normalization="hits"``).
+``h / min(hits(m1), hits(m2))`` (``normalization="hits"``); ``"pair_hits"``
+computes that ratio per view pair (a density-free overlap fraction in [0, 1]).
 
 Examples
 --------
@@ -114,10 +115,15 @@ def pixel_match_ratios(
     num_nodes : int
     areas : int ``[N]``
         Pixel area of each node (for ``normalization="area"``).
-    normalization : {"area", "hits"}
-        ``"area"``: the paper's ``h / min(area)``. ``"hits"``: the official
-        code's ``h / min(hits)``, hits being the matches that land in a node
-        with a node on the other side too.
+    normalization : {"area", "hits", "pair_hits"}
+        ``"area"``: the paper's ``h / min(area)``, match counts summed over
+        view pairs. ``"hits"``: the official code's ``h / min(hits)``, where
+        ``hits(m)`` counts the matches (of all view pairs) that land in ``m``
+        with a node on the other side too. ``"pair_hits"``: the same ratio
+        computed per view pair, so it estimates the fraction of the smaller
+        mask that maps into the other whatever the match density and the
+        number of pairs; a node pair seen in several view pairs keeps its
+        largest ratio.
     points : list of ``[H, W, 3]``, optional
         World points, needed by ``consistency_percentile``.
     consistency_percentile : float, optional
@@ -135,9 +141,9 @@ def pixel_match_ratios(
     Vectorised: per view pair one lookup of the match pixels; all pairs' counts
     in one :func:`pair_counts`. O(total matches + P log P); no loop over matches.
     """
-    if normalization not in ("area", "hits"):
-        raise ValueError(f"unknown normalization {normalization!r}; choose 'area' or 'hits'")
-    us, vs = [], []
+    if normalization not in ("area", "hits", "pair_hits"):
+        raise ValueError(f"unknown normalization {normalization!r}; choose 'area', 'hits' or 'pair_hits'")
+    us, vs, hit_ratio = [], [], []
     for (i, j), m in matches.items():
         if len(m) == 0:
             continue
@@ -149,21 +155,31 @@ def pixel_match_ratios(
         a, in_a = lookup_pixels(node_labels[i], m.xy_i)
         b, in_b = lookup_pixels(node_labels[j], m.xy_j)
         ok = keep & in_a & in_b & (a >= 0) & (b >= 0) & (a != b)
-        us.append(a[ok])
-        vs.append(b[ok])
-    if not us:
+        a, b = a[ok].astype(np.int64), b[ok].astype(np.int64)
+        us.append(a)
+        vs.append(b)
+        if normalization == "pair_hits":
+            pu, pv, pc = pair_counts(np.minimum(a, b), np.maximum(a, b), max(num_nodes, 1))
+            hits = np.bincount(a, minlength=num_nodes) + np.bincount(b, minlength=num_nodes)
+            hit_ratio.append((pu, pv, pc / np.maximum(np.minimum(hits[pu], hits[pv]), 1)))
+    if not us or not sum(x.size for x in us):
         z = np.zeros(0, np.int64)
         return np.zeros((2, 0), np.int64), z, np.zeros(0)
-    a = np.concatenate(us).astype(np.int64)
-    b = np.concatenate(vs).astype(np.int64)
+    a = np.concatenate(us)
+    b = np.concatenate(vs)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     u, v, count = pair_counts(lo, hi, max(num_nodes, 1))
     if normalization == "area":
-        denom = np.minimum(areas[u], areas[v]).astype(np.float64)
-    else:
+        ratio = count / np.maximum(np.minimum(areas[u], areas[v]).astype(np.float64), 1.0)
+    elif normalization == "hits":  # hits accumulated over all view pairs, as the official code
         hits = np.bincount(a, minlength=num_nodes) + np.bincount(b, minlength=num_nodes)
-        denom = np.minimum(hits[u], hits[v]).astype(np.float64)
-    ratio = count / np.maximum(denom, 1.0)
+        ratio = count / np.maximum(np.minimum(hits[u], hits[v]), 1).astype(np.float64)
+    else:  # pair_hits: a node pair seen in several view pairs keeps its best per-pair ratio
+        ratio = np.zeros(u.size)
+        key = u * num_nodes + v
+        for pu, pv, r in hit_ratio:
+            pos = np.searchsorted(key, pu * num_nodes + pv)
+            np.maximum.at(ratio, pos, r)
     return np.stack([u, v]), count, ratio
 
 
@@ -175,7 +191,7 @@ def pixel_match_edges(
     areas: np.ndarray,
     tau: float | None = None,
     percentile: float = 78.0,
-    min_matches: int = 1,
+    min_matches: int = 3,
     normalization: str = "area",
     points: Sequence[np.ndarray | None] | None = None,
     consistency_percentile: float | None = None,
@@ -189,7 +205,11 @@ def pixel_match_edges(
     percentile : float
         Used when ``tau`` is None; the paper's default is 78.
     min_matches : int
-        Pairs sharing fewer matches never get an edge.
+        Pairs sharing fewer matches are ignored: they get no edge and do not
+        count toward the percentile. Stray matches touch many mask pairs once
+        or twice; without this, those pairs outnumber the real ones and drag
+        the percentile threshold down into the noise (default 3; 1 = the
+        paper's rule).
     Other parameters are those of :func:`pixel_match_ratios`.
 
     Returns
@@ -207,11 +227,12 @@ def pixel_match_edges(
         points=points,
         consistency_percentile=consistency_percentile,
     )
+    eligible = count >= min_matches
     if tau is None:
-        tau_used = float(np.percentile(ratio, percentile)) if ratio.size else np.inf
+        tau_used = float(np.percentile(ratio[eligible], percentile)) if eligible.any() else np.inf
     else:
         tau_used = float(tau)
-    keep = (ratio >= tau_used) & (count >= min_matches)
+    keep = eligible & (ratio >= tau_used)
     n = int(keep.sum())
     return EdgeSet(
         ei[:, keep],
@@ -221,7 +242,7 @@ def pixel_match_edges(
             "count": count[keep],
             "ratio": ratio[keep],
         },
-        info={"tau": tau_used, "candidates": int(ratio.size)},
+        info={"tau": tau_used, "candidates": int(ratio.size), "eligible": int(eligible.sum())},
     )
 
 
@@ -236,7 +257,7 @@ class PixelMatchEdgeAdder:
     >>> from graphseg.scene import Matches
     >>> g = CorrespondenceGraph.from_masks([np.array([[1, 1]]), np.array([[1, 1]])])
     >>> ev = Evidence.for_graph(g, matches={(0, 1): Matches([[0, 0]], [[1, 0]], [1.0])})
-    >>> PixelMatchEdgeAdder(tau=0.5)(g, ev).edge_index.tolist()
+    >>> PixelMatchEdgeAdder(tau=0.5, min_matches=1)(g, ev).edge_index.tolist()
     [[0], [1]]
     """
 
@@ -246,7 +267,7 @@ class PixelMatchEdgeAdder:
         self,
         tau: float | None = None,
         percentile: float = 78.0,
-        min_matches: int = 1,
+        min_matches: int = 3,
         normalization: str = "area",
         consistency_percentile: float | None = None,
     ) -> None:

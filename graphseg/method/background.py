@@ -26,7 +26,35 @@ import numpy as np
 
 from ..config import BackgroundConfig
 
-__all__ = ["fit_plane_ransac", "background_masks", "BackgroundInfo"]
+__all__ = ["fit_plane_ransac", "background_masks", "BackgroundInfo", "point_normals"]
+
+
+def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
+    """Unit surface normals ``[H, W, 3]`` of a point map (NaN where unknown).
+
+    Central differences over ``step`` pixels. At a depth edge the difference
+    spans both surfaces, so the normal there matches neither: pixels at the
+    foot of an object are not mistaken for table.
+
+    Examples
+    --------
+    >>> ys, xs = np.mgrid[0:5, 0:5].astype(np.float32)
+    >>> plane = np.stack([xs, ys, np.zeros_like(xs)], -1)
+    >>> np.abs(point_normals(plane, 1)[2, 2]).tolist()
+    [0.0, 0.0, 1.0]
+    """
+    p = np.asarray(points, np.float32)
+    h, w = p.shape[:2]
+    dx = np.full_like(p, np.nan)
+    dy = np.full_like(p, np.nan)
+    if w > 2 * step:
+        dx[:, step:-step] = p[:, 2 * step :] - p[:, : -2 * step]
+    if h > 2 * step:
+        dy[step:-step] = p[2 * step :] - p[: -2 * step]
+    n = np.cross(dx, dy)
+    norm = np.linalg.norm(n, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return n / norm
 
 
 def fit_plane_ransac(
@@ -173,12 +201,18 @@ def background_masks(
         else:
             max_dist = float(cfg.max_distance)
         info.max_distance = max_dist
+    cos_max = None if cfg.plane_normal_angle is None else float(np.cos(cfg.plane_normal_angle))
     for k, (f, v) in enumerate(zip(flat, valid)):
         pv = f[v].astype(np.float64)
         b = np.zeros(len(pv), bool)
         if plane is not None:
             sd = pv @ plane[0] + plane[1]
-            b |= np.abs(sd) <= cfg.plane_tolerance
+            band = np.abs(sd) <= cfg.plane_tolerance
+            if cos_max is not None:
+                nrm = point_normals(np.asarray(points[k], np.float32)).reshape(-1, 3)[v]
+                cos = np.abs(nrm @ plane[0].astype(np.float32))
+                band &= ~(cos < cos_max)  # unknown normals (NaN) count as plane
+            b |= band
             if cfg.below_plane and cam_centers is not None:
                 b |= sd < -cfg.plane_tolerance
         if max_dist is not None and cam_centers is not None:

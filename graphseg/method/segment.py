@@ -155,7 +155,7 @@ def segment(
         out_labels.append(lut[lab])
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
     clouds = node_point_sets(
-        object_nodes, points, num_objects, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in scene.views]
+        object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in scene.views]
     )
     timings["outputs"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0

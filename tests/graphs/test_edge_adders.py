@@ -44,18 +44,25 @@ def test_pixel_match_hand_computed_ratio_and_threshold():
     xy2 = np.array([[0, 1]] * 8 + [[6, 1]] * 2 + [[7, 3]], float)
     m = {(0, 1): Matches(xy, xy2, np.ones(11))}
     areas = np.array([16, 16, 16, 16])
-    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.1)
+    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.1, min_matches=1)
     got = {(int(u), int(v)): r for u, v, r in zip(*es.edge_index, es.edge_attr["ratio"])}
     assert got == {(0, 2): 0.5, (1, 3): 0.125}
     assert es.edge_attr["count"].tolist() == [8, 2]
     # percentile threshold: 78th percentile of [1/16, 2/16, 8/16]
-    es = pixel_match_edges(labels, m, 4, areas=areas)
+    es = pixel_match_edges(labels, m, 4, areas=areas, min_matches=1)
     assert es.info["tau"] == pytest.approx(np.percentile([1 / 16, 2 / 16, 8 / 16], 78))
     assert es.edge_index.T.tolist() == [[0, 2]]
     # official normalisation: hits of mask 0 = 9, mask 2 = 8 -> 8 / 8
-    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.0, normalization="hits")
+    es = pixel_match_edges(labels, m, 4, areas=areas, tau=0.0, normalization="hits", min_matches=1)
     got = {(int(u), int(v)): r for u, v, r in zip(*es.edge_index, es.edge_attr["ratio"])}
     assert got[(0, 2)] == 1.0 and got[(0, 3)] == pytest.approx(1 / 3)
+    # per view pair: same numbers here (one view pair); a second identical pair doubles the
+    # global hits but leaves the per-pair ratio alone
+    m2 = {(0, 1): m[(0, 1)], (1, 0): Matches(xy2, xy, np.ones(11))}
+    g = pixel_match_edges(labels, m2, 4, areas=areas, tau=0.0, normalization="hits", min_matches=1)
+    p = pixel_match_edges(labels, m2, 4, areas=areas, tau=0.0, normalization="pair_hits", min_matches=1)
+    assert g.edge_attr["ratio"][0] == pytest.approx(1.0) and p.edge_attr["ratio"][0] == pytest.approx(1.0)
+    assert g.edge_attr["count"][0] == 16
     with pytest.raises(ValueError, match="normalization"):
         pixel_match_edges(labels, m, 4, areas=areas, normalization="x")
 
@@ -68,10 +75,21 @@ def test_pixel_match_consistency_uses_each_images_own_pixel():
     xy = np.array([[0, 0]] * 9 + [[5, 0]], float)
     xy2 = np.array([[0, 0]] * 9 + [[5, 0]], float)
     m = {(0, 1): Matches(xy, xy2, np.ones(10))}
-    es = pixel_match_edges(labels, m, 4, areas=np.full(4, 16), tau=0.0, points=[p0, p1], consistency_percentile=90)
+    es = pixel_match_edges(labels, m, 4, areas=np.full(4, 16), tau=0.0, min_matches=1, points=[p0, p1], consistency_percentile=90)
     assert es.edge_index.T.tolist() == [[0, 2]]  # the inconsistent right->right match was dropped
     with pytest.raises(ValueError, match="needs world points"):
         pixel_match_edges(labels, m, 4, areas=np.full(4, 16), consistency_percentile=90)
+
+
+def test_min_matches_keeps_stray_pairs_out_of_the_percentile():
+    labels = two_view_labels()
+    xy = np.array([[0, 0]] * 8 + [[5, 0]] * 2 + [[1, 1]], float)
+    xy2 = np.array([[0, 1]] * 8 + [[6, 1]] * 2 + [[7, 3]], float)
+    m = {(0, 1): Matches(xy, xy2, np.ones(11))}
+    es = pixel_match_edges(labels, m, 4, areas=np.full(4, 16), min_matches=2, percentile=0)
+    # the single stray match (0 -> 3) is ignored; the threshold is the minimum of [2/16, 8/16]
+    assert es.info["eligible"] == 2 and es.info["tau"] == pytest.approx(2 / 16)
+    assert es.edge_index.T.tolist() == [[0, 2], [1, 3]]
 
 
 def test_pixel_match_out_of_image_and_empty():
@@ -193,5 +211,5 @@ def test_pixel_match_adder_class():
     labels = two_view_labels()
     g = CorrespondenceGraph(4, node_attr={"area": np.full(4, 16)})
     m = {(0, 1): Matches([[0, 0]], [[0, 0]], [1.0])}
-    es = PixelMatchEdgeAdder(tau=0.01)(g, Evidence(labels, matches=m))
+    es = PixelMatchEdgeAdder(tau=0.01, min_matches=1)(g, Evidence(labels, matches=m))
     assert es.edge_index.T.tolist() == [[0, 2]]

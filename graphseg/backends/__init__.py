@@ -1,0 +1,1 @@
+"""Backends: segmenters, matchers, lifters and feature extractors behind protocols and registries."""

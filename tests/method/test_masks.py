@@ -1,0 +1,57 @@
+import numpy as np
+import pytest
+
+from graphseg.method.masks import compose_masks
+
+
+def test_smaller_masks_painted_over_larger():
+    big = np.ones((4, 4), bool)
+    mid = np.zeros((4, 4), bool)
+    mid[:2, :2] = True
+    small = np.zeros((4, 4), bool)
+    small[0, 0] = True
+    lab, info = compose_masks([small, big, mid])  # order of input does not matter
+    assert lab.dtype == np.int32 and lab.shape == (4, 4)
+    assert lab[0, 0] == 1 and lab[0, 1] == 3 and lab[3, 3] == 2
+    assert info["kept"] == [0, 1, 2]
+
+
+def test_ties_are_deterministic():
+    a = np.zeros((2, 2), bool)
+    a[0] = True
+    b = np.zeros((2, 2), bool)
+    b[:, 0] = True
+    lab1, _ = compose_masks([a, b])
+    lab2, _ = compose_masks([a, b])
+    assert np.array_equal(lab1, lab2) and lab1[0, 0] == 2  # equal area: lower index painted first
+
+
+def test_background_overlap_drop_and_clear():
+    bg = np.zeros((10, 10), bool)
+    bg[9] = True
+    m1 = np.zeros((10, 10), bool)
+    m1[8:] = True  # 50% background -> dropped
+    m2 = np.zeros((10, 10), bool)
+    m2[:9, :5] = True
+    m2[9, 0] = True  # 1/46 background -> kept, pixel cleared
+    lab, info = compose_masks([m1, m2], background=bg, max_overlap=0.09)
+    assert info["dropped_background"] == [0]
+    assert lab[9, 0] == 0 and lab[0, 0] == 2
+
+
+def test_min_area_and_label_image_input():
+    lab_in = np.array([[1, 1, 2], [0, 3, 3]])
+    lab, info = compose_masks(lab_in, min_area=2)
+    assert lab.tolist() == [[1, 1, 0], [0, 3, 3]] and info["dropped_small"] == [1]
+    bg = np.array([[False, False, True], [False, False, False]])
+    lab, info = compose_masks(lab_in, background=bg, max_overlap=0.5)
+    assert info["dropped_background"] == [1] and lab[0, 2] == 0
+
+
+def test_errors():
+    with pytest.raises(ValueError, match="at least one mask"):
+        compose_masks([])
+    with pytest.raises(ValueError, match="mask 1 is"):
+        compose_masks([np.zeros((2, 2), bool), np.zeros((3, 3), bool)])
+    with pytest.raises(ValueError, match=">= 0"):
+        compose_masks(np.array([[-1, 0]]))

@@ -1,0 +1,175 @@
+import time
+
+import numpy as np
+import pytest
+
+from graphseg.config import Config
+from graphseg.method.segment import segment
+from graphseg.result import Result
+from graphseg.scene import Matches, SceneError
+from graphseg.sim.boxes import Box
+from graphseg.testing.scenes import box_scene, exact_matches, oracle_part_masks, two_boxes_scene
+
+
+def assert_exact(scene, result):
+    """Every object gets exactly one id, the same in every view, no two objects share one, and no
+    table pixel is given to an object. Up to 1% of an object's pixels may fall to the background
+    class (points at the very foot of a box, inside the plane band, with an unknown normal)."""
+    mapping = {}
+    for v, view in enumerate(scene.views):
+        gt, pr = view.instances, result.labels[v]
+        obj = gt > 0
+        assert (pr[~obj] == 0).all()
+        for g in np.unique(gt[obj]):
+            got = pr[gt == g]
+            ids = np.unique(got[got > 0])
+            assert ids.size == 1, (v, g, ids)
+            assert (got == 0).mean() <= 0.01, (v, g, (got == 0).mean())
+            assert mapping.setdefault(int(g), int(ids[0])) == int(ids[0])
+    assert len(set(mapping.values())) == len(mapping)
+
+
+PAIR_HITS = Config(pixel_match={"normalization": "pair_hits", "tau": 0.2})
+
+
+@pytest.mark.parametrize(("parts", "seed", "cfg"), [(1, 0, None), (2, 0, None)] + [(k, s, PAIR_HITS) for k in (1, 2, 3, 4) for s in (0, 1, 2)])
+def test_two_boxes_recovered_exactly(parts, seed, cfg):
+    """Paper defaults (78th-percentile rule) on the fixed scene; the per-pair overlap rule on 12 scenes.
+
+    With the percentile rule only the top 22% of mask pairs get an edge, so parts of an object
+    merge only when a cross-part ratio lands in that top share: it does for these two, not for
+    every cut (see docs/results.md for how often).
+    """
+    scene, masks, matches = two_boxes_scene(parts=parts, seed=seed)
+    r = segment(scene, masks, matches, cfg)
+    assert r.num_objects == 2
+    assert_exact(scene, r)
+    assert len(r.graphs) == 2 and r.graph_2d.level == "mask" and r.graph_3d.level == "super"
+    assert set(r.graph_2d.edge_attr["criterion"]) <= {"pixel_match"}
+    assert set(r.graph_3d.edge_attr["criterion"]) <= {"chamfer_3d"}
+    assert (r.graph_3d.edge_attr["stage"] == 1).all()
+
+
+def test_five_boxes_four_views_with_union_find():
+    boxes = [
+        Box((-0.15, -0.1, 0.04), (0.06, 0.06, 0.08), 0.1, (220, 50, 50)),
+        Box((0.0, -0.12, 0.05), (0.05, 0.09, 0.1), 0.5, (50, 200, 50)),
+        Box((0.15, -0.05, 0.03), (0.08, 0.05, 0.06), -0.3, (50, 50, 220)),
+        Box((-0.05, 0.12, 0.06), (0.07, 0.07, 0.12), 0.8, (220, 200, 40)),
+        Box((0.13, 0.13, 0.025), (0.1, 0.06, 0.05), 0.0, (200, 60, 200)),
+    ]
+    scene = box_scene(boxes, views=4, shape=(120, 160), radius=0.6, height=0.5, arc_deg=70)
+    masks = oracle_part_masks(scene, 2, rng=1)
+    cfg = Config(contractor="union_find")
+    r = segment(scene, masks, exact_matches(scene), cfg)
+    assert r.num_objects == 5
+    assert_exact(scene, r)
+
+
+def test_minus_config_has_no_3d_stage():
+    scene, masks, matches = two_boxes_scene(parts=3)
+    r = segment(scene, masks, matches, Config.minus())
+    assert len(r.graphs) == 1 and r.graph_3d is None
+    assert r.num_objects >= 2
+
+
+def test_determinism_same_seed_same_labels():
+    scene, masks, matches = two_boxes_scene(parts=3)
+    a = segment(scene, masks, matches, Config(seed=7))
+    b = segment(scene, masks, matches, Config(seed=7))
+    for x, y in zip(a.labels, b.labels):
+        assert np.array_equal(x, y)
+    assert np.array_equal(a.mask_object, b.mask_object)
+
+
+def test_object_of_members_and_clouds():
+    scene, masks, matches = two_boxes_scene(parts=2)
+    r = segment(scene, masks, matches)
+    table_id = len(masks[0]) - 1  # the table mask was dropped by the background
+    assert r.object_of(0, table_id) == 0
+    o = r.object_of("000", 0)
+    assert o in (1, 2) and (0, 0) in r.members(o)
+    assert sum(len(m) for m in r.object_map().values()) == len(r.mask_object)
+    pts, cols = r.object_cloud(o)
+    assert pts.shape[1] == 3 and cols.shape == pts.shape and cols.dtype == np.uint8
+    with pytest.raises(IndexError):
+        r.object_cloud(3)
+    with pytest.raises(KeyError, match="unknown view"):
+        r.object_of("zzz", 0)
+
+
+def test_result_save_load_roundtrip(tmp_path):
+    scene, masks, matches = two_boxes_scene(parts=2)
+    r = segment(scene, masks, matches)
+    r.save(tmp_path / "result.npz")
+    back = Result.load(tmp_path / "result.npz")
+    assert back.num_objects == r.num_objects and back.view_names == r.view_names
+    for x, y in zip(r.labels, back.labels):
+        assert np.array_equal(x, y)
+    assert back.config == r.config
+    assert np.array_equal(back.graph_2d.edge_index, r.graph_2d.edge_index)
+    assert back.object_of(1, 1) == r.object_of(1, 1)
+    # the saved mask graph can be contracted again with no backend
+    again = back.graph_2d.contract("union_find")
+    assert again.shape == (back.graph_2d.num_nodes,)
+
+
+def test_dino_stage_with_supplied_features():
+    scene, masks, matches = two_boxes_scene(parts=2)
+    # features = the object colour: the dino adder alone can merge parts of the same box
+    feats = [v.rgb.astype(np.float32) + 1.0 for v in scene.views]
+    cfg = Config(stages=[["pixel_match", "dino"]], dino={"threshold": 0.999, "cross_view_only": False})
+    r = segment(scene, masks, matches, cfg, features=feats)
+    assert "dino" in set(r.graph_2d.edge_attr["criterion"])
+    assert r.num_objects == 2
+
+
+def test_input_errors():
+    scene, masks, matches = two_boxes_scene()
+    with pytest.raises(ValueError, match="one mask set per view"):
+        segment(scene, masks[:2], matches)
+    bad = scene.select([0, 1, 2])
+    bad.views[1] = bad.views[1].replace(points=None)
+    with pytest.raises(SceneError, match="points"):
+        segment(bad, masks, matches)
+    with pytest.raises(ValueError, match="distinct views"):
+        segment(scene, masks, {(0, 0): matches[(0, 1)]})
+    with pytest.raises(TypeError, match="expected Matches"):
+        segment(scene, masks, {(0, 1): "nope"})
+
+
+def test_label_image_and_bool_stack_inputs():
+    scene, masks, matches = two_boxes_scene(parts=1)
+    labels = [v.instances.astype(np.int32) for v in scene.views]
+    r = segment(scene, labels, matches)
+    assert r.num_objects == 2
+    stacks = [np.stack(m) for m in masks]
+    assert segment(scene, stacks, matches).num_objects == 2
+
+
+def test_large_input_has_no_quadratic_loop():
+    """~1000 masks, 45 pairs x 10k matches: must run in seconds (a loop over matches or mask pairs would not)."""
+    rng = np.random.default_rng(0)
+    from graphseg.scene import Scene, View
+
+    views, masks = [], []
+    h, w = 240, 320
+    for v in range(10):
+        lab = (np.arange(h)[:, None] // 24) * 10 + (np.arange(w)[None, :] // 32) + 1  # 100 masks per view
+        pts = np.dstack([np.tile(np.arange(w), (h, 1)) * 1e-3, np.tile(np.arange(h)[:, None], (1, w)) * 1e-3, np.full((h, w), 0.1 + v * 1e-4)]).astype(np.float32)
+        T = np.eye(4)
+        T[:3, 3] = [0, 0, 1.0]
+        T[:3, :3] = np.diag([1, -1, -1])
+        views.append(View(f"{v}", np.zeros((h, w, 3), np.uint8), points=pts, K=np.eye(3), cam_to_world=T))
+        masks.append(lab.astype(np.int32))
+    scene = Scene(views)
+    matches = {}
+    for i in range(10):
+        for j in range(i + 1, 10):
+            xy = rng.uniform(0, [w - 1, h - 1], (10_000, 2))
+            matches[(i, j)] = Matches(xy, xy + rng.normal(0, 0.3, xy.shape), np.ones(10_000))
+    cfg = Config(background={"enabled": False})
+    t = time.perf_counter()
+    r = segment(scene, masks, matches, cfg)
+    assert time.perf_counter() - t < 20
+    assert r.graph_2d.num_nodes == 1000
