@@ -1,0 +1,42 @@
+"""Feature extractors for the ``dino`` edge adder.
+
+``color``: a weight-free stand-in: per-pixel CIE Lab colour, blurred, at a
+reduced resolution. Real DINO features come from a model adapter.
+
+Examples
+--------
+>>> import numpy as np
+>>> from graphseg.scene import View
+>>> f = ColorFeatures(downsample=2)(View("0", np.zeros((8, 8, 3), np.uint8)))
+>>> f.shape
+(4, 4, 3)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene import View
+
+__all__ = ["ColorFeatures"]
+
+
+class ColorFeatures:
+    """Blurred CIE Lab colour per pixel, ``[H / downsample, W / downsample, 3]``, shifted so black is not the zero vector."""
+
+    name = "color"
+
+    def __init__(self, downsample: int = 4, blur: float = 1.0) -> None:
+        self.downsample = downsample
+        self.blur = blur
+
+    def __call__(self, view: View) -> np.ndarray:
+        import cv2
+
+        rgb = np.ascontiguousarray(view.rgb)
+        lab = cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB).astype(np.float32)
+        if self.blur > 0:
+            lab = cv2.GaussianBlur(lab, (0, 0), self.blur)
+        h, w = lab.shape[:2]
+        small = cv2.resize(lab, (max(1, w // self.downsample), max(1, h // self.downsample)), interpolation=cv2.INTER_AREA)
+        return small + np.array([1.0, 0.0, 0.0], np.float32)

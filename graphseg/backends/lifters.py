@@ -1,0 +1,48 @@
+"""Lifters: give every pixel a world point.
+
+``rgbd``: metric depth + intrinsics + poses -> world point maps, confidence 1
+where depth is valid and 0 elsewhere. A scene without depth needs a learned
+lifter (a DUSt3R adapter), which this package does not ship weights for.
+
+Examples
+--------
+>>> import numpy as np
+>>> from graphseg.scene import Scene, View
+>>> v = View("0", np.zeros((2, 2, 3), np.uint8), depth=np.ones((2, 2), np.float32), K=np.eye(3), cam_to_world=np.eye(4))
+>>> RGBDLifter()(Scene([v])).views[0].points[1, 1].tolist()
+[1.0, 1.0, 1.0]
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene import Scene, SceneError, backproject
+
+__all__ = ["RGBDLifter", "NO_DEPTH_MESSAGE"]
+
+NO_DEPTH_MESSAGE = (
+    "this scene has no depth; install/select a 3D lifter (DUSt3R adapter) with --lifter NAME, "
+    "or provide depth images with intrinsics and poses"
+)
+
+
+class RGBDLifter:
+    """The ``rgbd`` lifter: ``points = cam_to_world * backproject(depth, K)``."""
+
+    name = "rgbd"
+
+    def __call__(self, scene: Scene) -> Scene:
+        views = []
+        for v in scene.views:
+            if v.depth is None:
+                raise SceneError(NO_DEPTH_MESSAGE, where=v.name, field="depth")
+            if v.K is None:
+                raise SceneError("the rgbd lifter needs intrinsics", where=v.name, field="K")
+            if v.cam_to_world is None:
+                raise SceneError("the rgbd lifter needs a camera pose", where=v.name, field="cam_to_world")
+            d = np.asarray(v.depth, np.float32)
+            pts = backproject(d, v.K, v.cam_to_world)
+            conf = (np.isfinite(d) & (d > 0)).astype(np.float32)
+            views.append(v.replace(points=pts, confidence=conf))
+        return Scene(views, dict(scene.objects), scene.name, dict(scene.meta))

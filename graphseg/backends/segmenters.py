@@ -1,0 +1,297 @@
+"""Segmenters: a view -> over-segmentation masks.
+
+When to use which
+-----------------
+``geometric`` (default)
+    RGB-D tabletop scenes (depth or point maps available). Removes the table
+    plane, then cuts the rest at depth discontinuities (and, optionally, at
+    normal and strong colour edges). Parts rarely cross object boundaries
+    because objects are separated in depth; objects that touch and share a
+    depth band can merge.
+``superpixel``
+    RGB only. Felzenszwalb graph-based superpixels (scikit-image), a SAM-like
+    over-segmentation with no geometry; parts straddling object and table are
+    dropped by the background rule.
+``precomputed``
+    Masks made elsewhere (for example SAM run on a GPU machine): per-view
+    label PNGs or NPZ stacks of boolean masks in a folder.
+``oracle-parts``
+    Evaluation only, needs ground-truth instances: every object's mask is cut
+    into ``parts`` pieces by random straight cuts, so the graph stage can be
+    measured apart from the segmenter.
+
+Examples
+--------
+>>> import numpy as np
+>>> from graphseg.scene import View
+>>> rgb = np.zeros((20, 20, 3), np.uint8); rgb[:, 10:] = 255
+>>> lab = SuperpixelSegmenter(scale=50, min_size=10)(View("0", rgb))
+>>> lab.shape, int(lab.max())
+((20, 20), 2)
+"""
+
+from __future__ import annotations
+
+import os
+import zlib
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..geometry import fit_plane_ransac, point_normals
+from ..scene import SceneError, View, backproject
+from .parts import split_mask
+
+__all__ = [
+    "SuperpixelSegmenter",
+    "GeometricSegmenter",
+    "PrecomputedSegmenter",
+    "OraclePartsSegmenter",
+    "geometric_segments",
+    "save_precomputed",
+    "load_precomputed",
+]
+
+
+class SuperpixelSegmenter:
+    """Felzenszwalb superpixels (``method="felzenszwalb"``) or SLIC (``method="slic"``).
+
+    ``scale`` and ``min_size`` are given for 640x480 and scaled with the image area.
+    """
+
+    name = "superpixel"
+
+    def __init__(self, method: str = "felzenszwalb", scale: float = 400.0, sigma: float = 0.8, min_size: int = 400, n_segments: int = 150) -> None:
+        if method not in ("felzenszwalb", "slic"):
+            raise ValueError(f"unknown superpixel method {method!r}; choose 'felzenszwalb' or 'slic'")
+        self.method = method
+        self.scale = scale
+        self.sigma = sigma
+        self.min_size = min_size
+        self.n_segments = n_segments
+
+    def __call__(self, view: View) -> np.ndarray:
+        from skimage.segmentation import felzenszwalb, slic
+
+        rgb = np.asarray(view.rgb)
+        area = rgb.shape[0] * rgb.shape[1] / (640 * 480)
+        if self.method == "felzenszwalb":
+            lab = felzenszwalb(rgb, scale=self.scale, sigma=self.sigma, min_size=max(4, int(self.min_size * area)))
+        else:
+            lab = slic(rgb, n_segments=self.n_segments, compactness=10, start_label=0)
+        return (lab + 1).astype(np.int32)
+
+
+def _camera_points(view: View) -> np.ndarray:
+    if view.points is not None and view.cam_to_world is not None:
+        T = np.asarray(view.cam_to_world, np.float64)
+        return ((np.asarray(view.points, np.float64) - T[:3, 3]) @ T[:3, :3]).astype(np.float32)
+    if view.depth is not None and view.K is not None:
+        return backproject(view.depth, view.K)
+    if view.points is not None:
+        return np.asarray(view.points, np.float32)
+    raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth")
+
+
+def geometric_segments(
+    points: np.ndarray,
+    rgb: np.ndarray | None = None,
+    *,
+    plane_tolerance: float = 0.01,
+    max_distance: float | str | None = "auto",
+    depth_abs: float = 0.01,
+    depth_rel: float = 0.02,
+    normal_angle: float | None = None,
+    color_threshold: float | None = 40.0,
+    color_blur: float = 2.0,
+    min_area: int = 60,
+    fill_radius: int = 4,
+    rng: Any = None,
+) -> np.ndarray:
+    """Segment a camera-frame point map into object parts.
+
+    Parameters
+    ----------
+    points : float ``[H, W, 3]``
+        Camera-frame points (camera at the origin, z forward), NaN = invalid.
+    rgb : uint8 ``[H, W, 3]``, optional
+        For colour edges.
+    plane_tolerance : float
+        Points within this distance of the RANSAC table plane, or behind it,
+        are not segmented.
+    max_distance : float, "auto" or None
+        Points farther from the camera are not segmented ("auto": 1.5 x the
+        median distance).
+    depth_abs, depth_rel : float
+        Neighbours further apart than ``depth_abs + depth_rel * z`` are cut.
+    normal_angle : float, optional
+        Cut between neighbours whose normals differ by more (radians).
+    color_threshold : float, optional
+        Cut between neighbours whose blurred CIE Lab colours differ by more.
+    min_area : int
+        Smaller components are absorbed by the nearest large one (within
+        ``fill_radius`` pixels) or dropped, scaled with the image area from 640x480.
+
+    Returns
+    -------
+    int32 ``[H, W]``
+        ``k + 1`` for part ``k``, 0 = table / far / invalid.
+
+    Notes
+    -----
+    O(H W): connected components on the 4-neighbour pixel graph with
+    ``scipy.sparse.csgraph``.
+    """
+    from scipy import ndimage
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    P = np.asarray(points, np.float32)
+    h, w = P.shape[:2]
+    valid = np.isfinite(P).all(-1)
+    fg = valid.copy()
+    dist = np.linalg.norm(np.where(valid[..., None], P, 0), axis=-1)
+    if valid.sum() >= 50:
+        gen = np.random.default_rng(rng)
+        flat = P[valid]
+        sample = flat[gen.choice(len(flat), size=min(20_000, len(flat)), replace=False)].astype(np.float64)
+        normal, offset, inl = fit_plane_ransac(sample, threshold=plane_tolerance, iterations=200, rng=gen)
+        if inl.mean() > 0.1:
+            if offset < 0:  # camera (origin) on the positive side
+                normal, offset = -normal, -offset
+            sd = np.where(valid, P @ normal.astype(np.float32) + np.float32(offset), -np.inf)
+            fg &= sd > plane_tolerance
+        if max_distance is not None:
+            md = 1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance)
+            fg &= dist <= md
+    # pixel graph: 4-neighbour links between similar foreground pixels
+    idx = np.arange(h * w).reshape(h, w)
+    thr = depth_abs + depth_rel * np.where(valid, P[..., 2], 0)
+    lab_col = None
+    if color_threshold is not None and rgb is not None:
+        import cv2
+
+        lab_col = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2LAB).astype(np.float32)
+        if color_blur > 0:
+            lab_col = cv2.GaussianBlur(lab_col, (0, 0), color_blur)
+    nrm = point_normals(P) if normal_angle is not None else None
+    src, dst = [], []
+    for sl_a, sl_b in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))), ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
+        ok = fg[sl_a] & fg[sl_b]
+        ok &= np.linalg.norm(P[sl_a] - P[sl_b], axis=-1) <= np.minimum(thr[sl_a], thr[sl_b])
+        if lab_col is not None:
+            ok &= np.linalg.norm(lab_col[sl_a] - lab_col[sl_b], axis=-1) <= color_threshold
+        if nrm is not None:
+            cos = np.einsum("...k,...k->...", nrm[sl_a], nrm[sl_b])
+            ok &= ~(cos < np.cos(normal_angle))
+        src.append(idx[sl_a][ok])
+        dst.append(idx[sl_b][ok])
+    s, d = np.concatenate(src), np.concatenate(dst)
+    _, comp = connected_components(coo_matrix((np.ones(s.size, np.int8), (s, d)), shape=(h * w, h * w)), directed=False)
+    comp = comp.reshape(h, w)
+    sizes = np.bincount(comp[fg], minlength=comp.max() + 1)
+    min_px = max(4, int(min_area * h * w / (640 * 480)))
+    big = sizes >= min_px
+    keep = fg & big[comp]
+    # relabel big components 1..K
+    lut = np.zeros(comp.max() + 1, np.int32)
+    lut[np.flatnonzero(big)] = np.arange(1, int(big.sum()) + 1, dtype=np.int32)
+    labels = np.where(keep, lut[comp], 0).astype(np.int32)
+    # absorb small fragments and cut lines into the nearest large part
+    holes = fg & ~keep
+    if holes.any() and keep.any() and fill_radius > 0:
+        dmap, (iy, ix) = ndimage.distance_transform_edt(~keep, return_indices=True)
+        near = holes & (dmap <= fill_radius)
+        labels[near] = labels[iy[near], ix[near]]
+    return labels
+
+
+class GeometricSegmenter:
+    """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options)."""
+
+    name = "geometric"
+
+    def __init__(self, seed: int | None = 0, **options: Any) -> None:
+        self.seed = seed
+        self.options = options
+
+    def __call__(self, view: View) -> np.ndarray:
+        return geometric_segments(_camera_points(view), view.rgb, rng=self.seed, **self.options)
+
+
+def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.ndarray] | np.ndarray) -> Path:
+    """Write one view's masks: a label image as 16-bit ``NAME.png``, a list/stack of bool masks as ``NAME.npz``."""
+    import cv2
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    arr = masks if isinstance(masks, np.ndarray) else np.stack([np.asarray(m, bool) for m in masks])
+    if arr.ndim == 2:
+        if arr.min(initial=0) < 0 or arr.max(initial=0) >= 2**16:
+            raise ValueError("label images must hold values in [0, 65535]")
+        path = folder / f"{name}.png"
+        cv2.imwrite(str(path), arr.astype(np.uint16))
+    else:
+        path = folder / f"{name}.npz"
+        np.savez_compressed(path, masks=arr.astype(bool))
+    return path
+
+
+def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[np.ndarray]:
+    """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image)."""
+    import cv2
+
+    folder = Path(folder)
+    npz, png = folder / f"{name}.npz", folder / f"{name}.png"
+    if npz.exists():
+        with np.load(npz) as z:
+            if "masks" not in z.files:
+                raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
+            return list(z["masks"].astype(bool))
+    if png.exists():
+        lab = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
+        if lab is None or lab.ndim != 2:
+            raise SceneError("expected a single-channel label PNG", where=str(png), field="masks")
+        return lab.astype(np.int32)
+    raise SceneError(f"no masks for view {name!r} ({npz.name} or {png.name})", where=str(folder), field="masks")
+
+
+class PrecomputedSegmenter:
+    """Masks read from ``folder`` by view name (see :func:`load_precomputed`)."""
+
+    name = "precomputed"
+
+    def __init__(self, folder: str | os.PathLike[str] | None = None) -> None:
+        if folder is None:
+            raise ValueError("the precomputed segmenter needs folder=PATH (options: {'precomputed': {'folder': ...}})")
+        self.folder = Path(folder)
+
+    def __call__(self, view: View) -> np.ndarray | list[np.ndarray]:
+        masks = load_precomputed(self.folder, view.name)
+        shape = masks.shape if isinstance(masks, np.ndarray) else (masks[0].shape if masks else view.shape)
+        if tuple(shape) != view.shape:
+            raise SceneError(f"masks are {list(shape)} but the image is {list(view.shape)}", where=str(self.folder / view.name), field="masks")
+        return masks
+
+
+class OraclePartsSegmenter:
+    """EVALUATION ONLY (needs ground-truth instances): each object cut into ``parts`` random pieces."""
+
+    name = "oracle-parts"
+    needs_ground_truth = True
+
+    def __init__(self, parts: int = 2, seed: int = 0) -> None:
+        self.parts = parts
+        self.seed = seed
+
+    def __call__(self, view: View) -> list[np.ndarray]:
+        if view.instances is None:
+            raise SceneError("oracle-parts needs ground-truth instances (it is for evaluation only)", where=view.name, field="instances")
+        gen = np.random.default_rng([self.seed, zlib.crc32(view.name.encode())])
+        masks: list[np.ndarray] = []
+        inst = np.asarray(view.instances)
+        for k in np.unique(inst):
+            if k != 0:
+                masks += split_mask(inst == k, self.parts, rng=gen)
+        return masks

@@ -1,0 +1,149 @@
+"""The GraphSeg run end to end: scene -> (lift) -> masks, matches -> graph -> Result.
+
+Backends come from the registries by name, class or instance; their names and
+options default to ``config.backends``.
+
+Examples
+--------
+>>> from graphseg.testing.scenes import box_scene, TWO_BOXES
+>>> scene = box_scene(TWO_BOXES)
+>>> result = run(scene, segmenter="oracle-parts")
+>>> result.num_objects
+2
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from .backends.registry import features as feature_registry
+from .backends.registry import lifters, matchers, segmenters
+from .config import Config
+from .method.pairs import scene_scale, select_pairs
+from .method.segment import segment
+from .result import Result
+from .scene import Matches, Scene
+
+__all__ = ["run", "lift", "compute_masks", "compute_matches"]
+
+
+def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None = None) -> Any:
+    if isinstance(spec, str):
+        opts = dict(cfg.backends.options.get(spec, {}))
+        cls = registry.get(spec)
+        if extra:
+            import inspect
+
+            params = inspect.signature(cls).parameters
+            opts.update({k: v for k, v in extra.items() if k in params and k not in opts})
+        return registry.resolve(spec, **opts)
+    return registry.resolve(spec)
+
+
+def _progress(iterable: Any, desc: str, enabled: bool, total: int | None = None) -> Any:
+    if not enabled:
+        return iterable
+    from tqdm.auto import tqdm
+
+    return tqdm(iterable, desc=desc, total=total, leave=False)
+
+
+def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scene:
+    """World point maps for every view; a scene that has them is returned as is unless a lifter is named."""
+    cfg = config or Config()
+    if lifter is None and scene.has_points:
+        return scene
+    return _resolve(lifters, lifter or cfg.backends.lifter, cfg)(scene)
+
+
+def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = None, *, progress: bool = False) -> list[Any]:
+    """One mask set per view from the segmenter."""
+    cfg = config or Config()
+    seg = _resolve(segmenters, segmenter or cfg.backends.segmenter, cfg, {"seed": cfg.seed})
+    return [seg(v) for v in _progress(scene.views, "segment", progress)]
+
+
+def compute_matches(
+    scene: Scene,
+    matcher: Any = None,
+    config: Config | None = None,
+    *,
+    pairs: list[tuple[int, int]] | None = None,
+    progress: bool = False,
+) -> dict[tuple[int, int], Matches]:
+    """Matches for the selected view pairs (``config.pairs``)."""
+    cfg = config or Config()
+    m = _resolve(matchers, matcher or cfg.backends.matcher, cfg, {"num_matches": cfg.backends.num_matches, "seed": cfg.seed})
+    if pairs is None:
+        poses = [v.cam_to_world for v in scene.views]
+        scale = scene_scale([v.points for v in scene.views], poses) if all(p is not None for p in poses) else None
+        pairs = select_pairs(
+            poses,
+            mode=cfg.pairs.mode,
+            max_rotation=cfg.pairs.max_rotation,
+            max_translation=cfg.pairs.max_translation,
+            translation_scale=cfg.pairs.translation_scale,
+            scale=scale,
+        )
+    return {(i, j): m(scene[i], scene[j]) for i, j in _progress(pairs, "match", progress)}
+
+
+def run(
+    scene: Scene,
+    config: Config | None = None,
+    *,
+    segmenter: Any = None,
+    matcher: Any = None,
+    lifter: Any = None,
+    features: Any = None,
+    progress: bool = False,
+) -> Result:
+    """Run GraphSeg on ``scene`` with backends.
+
+    Parameters
+    ----------
+    scene : Scene
+    config : Config, optional
+    segmenter, matcher, lifter : name, class or instance, optional
+        Default to ``config.backends``.
+    features : name, class or instance, optional
+        Feature extractor for a ``dino`` stage (only run when a stage uses it).
+    progress : bool
+        Show progress bars.
+
+    Returns
+    -------
+    Result
+        ``info["pipeline"]`` names the backends and holds per-step timings.
+    """
+    cfg = config or Config()
+    t0 = time.perf_counter()
+    times: dict[str, float] = {}
+    scene.validate()
+    scene = lift(scene, lifter, cfg)
+    times["lift"] = time.perf_counter() - t0
+    t = time.perf_counter()
+    masks = compute_masks(scene, segmenter, cfg, progress=progress)
+    times["segment"] = time.perf_counter() - t
+    t = time.perf_counter()
+    matches = compute_matches(scene, matcher, cfg, progress=progress)
+    times["match"] = time.perf_counter() - t
+    feats = None
+    if any(a in ("dino", "dino_similarity") for s in cfg.stages for a in s):
+        t = time.perf_counter()
+        fx = _resolve(feature_registry, features or "color", cfg)
+        feats = [fx(v) for v in scene.views]
+        times["features"] = time.perf_counter() - t
+    t = time.perf_counter()
+    result = segment(scene, masks, matches, cfg, features=feats)
+    times["graph"] = time.perf_counter() - t
+    times["total"] = time.perf_counter() - t0
+    name = lambda x, default: x if isinstance(x, str) else (getattr(x, "name", None) or default)  # noqa: E731
+    result.info["pipeline"] = {
+        "segmenter": name(segmenter, cfg.backends.segmenter) if segmenter else cfg.backends.segmenter,
+        "matcher": name(matcher, cfg.backends.matcher) if matcher else cfg.backends.matcher,
+        "lifter": name(lifter, cfg.backends.lifter) if lifter else ("given" if lifter is None else cfg.backends.lifter),
+        "timings": times,
+    }
+    return result
