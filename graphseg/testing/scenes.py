@@ -19,7 +19,7 @@ from ..backends.parts import split_mask
 from ..scene import Matches, Scene, View
 from ..sim.boxes import Box, intrinsics, look_at, render_boxes
 
-__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "exact_matches"]
+__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "exact_matches", "random_boxes", "demo_box_scene"]
 
 TWO_BOXES = (
     Box((-0.08, 0.0, 0.05), (0.08, 0.08, 0.10), yaw=0.3, color=(200, 60, 60)),
@@ -87,3 +87,25 @@ def two_boxes_scene(parts: int = 2, views: int = 3, shape: tuple[int, int] = (96
     scene = box_scene(TWO_BOXES, views=views, shape=shape, name="two_boxes")
     masks = oracle_part_masks(scene, parts, rng=seed)
     return scene, masks, exact_matches(scene)
+
+
+def random_boxes(rng: Any, n: int, *, spread: float = 0.2) -> list[Box]:
+    """Up to ``n`` non-overlapping random boxes (4-12 cm) on the table around the origin."""
+    gen = np.random.default_rng(rng)
+    boxes: list[Box] = []
+    for _ in range(500):
+        if len(boxes) >= n:
+            break
+        c = gen.uniform(-spread, spread, 2)
+        s = gen.uniform(0.04, 0.12, 3)
+        if any(np.linalg.norm(c - np.asarray(b.center[:2])) < 0.5 * (max(s[:2]) + max(b.size[:2])) * 1.42 + 0.02 for b in boxes):
+            continue
+        color = tuple(int(x) for x in gen.integers(30, 230, 3))
+        boxes.append(Box((float(c[0]), float(c[1]), float(s[2] / 2)), (float(s[0]), float(s[1]), float(s[2])), float(gen.uniform(0, np.pi)), color))  # type: ignore[arg-type]
+    return boxes
+
+
+def demo_box_scene(seed: int = 0, views: int = 8, objects: int = 6, shape: tuple[int, int] = (480, 640)) -> Scene:
+    """The demo's fallback scene when pybullet is missing: random boxes, cameras all around."""
+    gen = np.random.default_rng(seed)
+    return box_scene(random_boxes(gen, objects), views=views, shape=shape, arc_deg=360.0 * (views - 1) / views, radius=0.55, height=0.45, jitter=0.01, rng=gen, name=f"boxes-{seed}")
