@@ -1,0 +1,70 @@
+import numpy as np
+import pytest
+
+from graphseg.backends.matchers import FlowMatcher, ReprojectionMatcher, SiftMatcher, reprojection_matches, subsample_matches
+from graphseg.backends.registry import matchers
+from graphseg.scene import Matches, SceneError
+from graphseg.testing.scenes import TWO_BOXES, box_scene
+
+
+def true_projection(scene, i, j, xy_i):
+    """Ground truth: ray-cast view i's pixel, project the exact world point into view j."""
+    v, w = scene[i], scene[j]
+    P = v.points[xy_i[:, 1].astype(int), xy_i[:, 0].astype(int)].astype(np.float64)
+    T = np.asarray(w.cam_to_world)
+    cam = (P - T[:3, 3]) @ T[:3, :3]
+    uv = cam[:, :2] / cam[:, 2:] * np.diag(w.K)[:2] + w.K[:2, 2]
+    return uv
+
+
+def test_reprojection_99_percent_within_one_pixel():
+    scene = box_scene(TWO_BOXES, views=2, shape=(240, 320), arc_deg=40)
+    m = ReprojectionMatcher(num_matches=10_000)(scene[0], scene[1])
+    assert isinstance(m, Matches) and 5000 <= len(m) <= 10_000
+    assert m.xy_i.shape == (len(m), 2) and m.certainty.shape == (len(m),)
+    err = np.linalg.norm(m.xy_j - true_projection(scene, 0, 1, m.xy_i), axis=1)
+    assert (err <= 1.0).mean() >= 0.99
+    # visibility: matched pixels in view j see the same surface (same instance)
+    inst_i = scene[0].instances[m.xy_i[:, 1].astype(int), m.xy_i[:, 0].astype(int)]
+    uj = np.clip(np.rint(m.xy_j).astype(int), 0, [319, 239])
+    inst_j = scene[1].instances[uj[:, 1], uj[:, 0]]
+    assert (inst_i == inst_j).mean() > 0.99
+
+
+def test_reprojection_occlusion_and_errors():
+    scene = box_scene(TWO_BOXES, views=2, shape=(60, 80), arc_deg=170)  # wide baseline: parts occluded
+    full = reprojection_matches(scene[0], scene[1])
+    valid = np.isfinite(scene[0].points).all(-1).sum()
+    assert 0 < len(full) < valid  # occluded / out-of-view pixels are not matched
+    with pytest.raises(SceneError, match="K"):
+        reprojection_matches(scene[0], scene[1].replace(K=None))
+    with pytest.raises(SceneError, match="points"):
+        reprojection_matches(scene[0].replace(points=None), scene[1])
+
+
+def test_subsample_keeps_most_certain():
+    m = Matches(np.arange(10)[:, None].repeat(2, 1), np.zeros((10, 2)), np.linspace(0, 1, 10))
+    s = subsample_matches(m, 3)
+    assert sorted(s.certainty.tolist()) == pytest.approx([7 / 9, 8 / 9, 1.0])
+    assert subsample_matches(m, None) is m
+
+
+def test_flow_and_sift_on_textured_pair():
+    rng = np.random.default_rng(0)
+    base = (rng.random((120, 160)) * 255).astype(np.uint8)
+    import cv2
+
+    base = cv2.GaussianBlur(base, (0, 0), 1.5)
+    rgb_i = np.dstack([base] * 3)
+    rgb_j = np.dstack([np.roll(base, 3, axis=1)] * 3)  # shifted right by 3 px
+    from graphseg.scene import View
+
+    vi, vj = View("i", rgb_i), View("j", rgb_j)
+    f = FlowMatcher(num_matches=2000)(vi, vj)
+    assert len(f) > 500
+    interior = (f.xy_i[:, 0] > 10) & (f.xy_i[:, 0] < 140)
+    assert np.median(f.xy_j[interior, 0] - f.xy_i[interior, 0]) == pytest.approx(3.0, abs=0.3)
+    s = SiftMatcher()(vi, vj)
+    if len(s):
+        assert np.median(s.xy_j[:, 0] - s.xy_i[:, 0]) == pytest.approx(3.0, abs=0.5)
+    assert matchers.resolve("sift").name == "sift"

@@ -1,0 +1,45 @@
+import numpy as np
+import pytest
+
+from graphseg.config import Config
+from graphseg.pipeline import compute_matches, run
+from graphseg.scene import Scene, SceneError
+from graphseg.testing.scenes import TWO_BOXES, box_scene
+
+
+def test_run_default_backends_on_box_scene():
+    scene = box_scene(TWO_BOXES, views=3, shape=(120, 160))
+    r = run(scene)
+    assert r.num_objects == 2
+    assert set(r.info["pipeline"]["timings"]) >= {"lift", "segment", "match", "graph", "total"}
+
+
+def test_run_lifts_depth_only_scene_and_rejects_rgb_only():
+    scene = box_scene(TWO_BOXES, views=3, shape=(96, 128))
+    depth_only = Scene([v.replace(points=None) for v in scene.views])
+    cfg = Config(backends={"options": {"oracle-parts": {"parts": 1}}})
+    assert run(depth_only, cfg, segmenter="oracle-parts").num_objects == 2
+    rgb_only = Scene([v.replace(points=None, depth=None) for v in scene.views])
+    with pytest.raises(SceneError, match="no depth"):
+        run(rgb_only)
+
+
+def test_backend_options_from_config_and_instances():
+    scene = box_scene(TWO_BOXES, views=3, shape=(96, 128))
+    cfg = Config(backends={"options": {"oracle-parts": {"parts": 3}}, "num_matches": 500})
+    m = compute_matches(scene, None, cfg)
+    assert all(len(x) <= 500 for x in m.values())
+    r = run(scene, cfg, segmenter="oracle-parts")
+    assert len(r.mask_object) == 3 * 2 * 3
+    from graphseg.backends.segmenters import OraclePartsSegmenter
+
+    r2 = run(scene, cfg, segmenter=OraclePartsSegmenter(parts=1))
+    assert len(r2.mask_object) == 6
+
+
+def test_dino_stage_runs_color_features():
+    scene = box_scene(TWO_BOXES, views=3, shape=(96, 128))
+    cfg = Config(stages=[["pixel_match", "dino"], ["chamfer_3d"]], dino={"threshold": 0.999, "cross_view_only": True})
+    r = run(scene, cfg, segmenter="oracle-parts")
+    assert "features" in r.info["pipeline"]["timings"]
+    assert r.num_objects == 2
