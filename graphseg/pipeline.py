@@ -7,7 +7,7 @@ Examples
 --------
 >>> from graphseg.testing.scenes import box_scene, TWO_BOXES
 >>> scene = box_scene(TWO_BOXES)
->>> result = run(scene, segmenter="oracle-parts")
+>>> result = run(scene)  # geometric segmenter, reprojection matcher
 >>> result.num_objects
 2
 """

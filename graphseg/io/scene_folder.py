@@ -31,7 +31,7 @@ Examples
 >>> v = View("a", np.zeros((4, 5, 3), np.uint8), depth=np.full((4, 5), 0.5, np.float32),
 ...          K=np.eye(3), cam_to_world=np.eye(4))
 >>> with tempfile.TemporaryDirectory() as d:
-...     write_scene_folder(Scene([v]), os.path.join(d, "s"))
+...     _ = write_scene_folder(Scene([v]), os.path.join(d, "s"))
 ...     back = read_scene_folder(os.path.join(d, "s"))
 >>> back.views[0].name, float(back.views[0].depth[0, 0])
 ('a', 0.5)

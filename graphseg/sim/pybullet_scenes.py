@@ -10,7 +10,9 @@ ids, ``K`` and ``cam_to_world`` in OpenCV axes. Deterministic by seed.
 
 Examples
 --------
->>> scene = synthesize(seed=0, objects=3, views=2, size=(160, 120))  # doctest: +SKIP
+>>> scene = synthesize(seed=0, objects=3, views=2, size=(160, 120))
+>>> len(scene), scene.views[0].depth.shape, scene.views[0].K[0, 2]
+(2, (120, 160), 80.0)
 """
 
 from __future__ import annotations
