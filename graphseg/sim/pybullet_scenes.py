@@ -11,7 +11,7 @@ ids, ``K`` and ``cam_to_world`` in OpenCV axes. Deterministic by seed.
 Examples
 --------
 >>> scene = synthesize(seed=0, objects=3, views=2, size=(160, 120))
->>> len(scene), scene.views[0].depth.shape, scene.views[0].K[0, 2]
+>>> len(scene), scene.views[0].depth.shape, float(scene.views[0].K[0, 2])
 (2, (120, 160), 80.0)
 """
 
