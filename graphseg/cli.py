@@ -39,7 +39,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="segment a scene and write the output folder")
     r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP)")
     r.add_argument("-o", "--out", required=True, help="output folder (replaced if it exists)")
-    r.add_argument("--config", help="YAML/JSON config file")
+    r.add_argument("--config", help="YAML/JSON config file (overrides --preset)")
+    r.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="configuration preset when no --config is given (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds)")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has no point maps)")
@@ -66,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--views", type=int, default=8)
     d.add_argument("--objects", type=int, default=6)
+    d.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"])
     d.add_argument("--quiet", action="store_true")
 
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
@@ -153,7 +155,7 @@ def _check_output_target(out: Path) -> None:
 def _config(args: argparse.Namespace) -> Any:
     from .config import Config
 
-    cfg = Config()
+    cfg = Config.preset(getattr(args, "preset", None) or "rgbd")
     if getattr(args, "config", None):
         import yaml
         from pydantic import ValidationError
@@ -272,7 +274,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     write_scene_folder(scene, out / "scene", overwrite=True)
     info = {"scene": str((out / "scene").resolve()), "format": "native", "views": [v.name for v in scene.views], "source": source}
-    result, metrics, path = _run_scene(scene, Config(seed=args.seed), out / "output", segmenter=None, matcher=None, lifter=None, progress=not args.quiet, run_info=info)
+    result, metrics, path = _run_scene(scene, Config.preset(args.preset, seed=args.seed), out / "output", segmenter=None, matcher=None, lifter=None, progress=not args.quiet, run_info=info)
     print(f"demo: {len(scene)} views, {len(scene.objects)} objects ({source}); found {result.num_objects} objects in {time.perf_counter() - t0:.1f} s")
     if metrics:
         print(_metrics_table(metrics))

@@ -85,6 +85,7 @@ def compute_matches(
             max_translation=cfg.pairs.max_translation,
             translation_scale=cfg.pairs.translation_scale,
             scale=scale,
+            auto_max_views=cfg.pairs.auto_max_views,
         )
     return {(i, j): m(scene[i], scene[j]) for i, j in _progress(pairs, "match", progress)}
 

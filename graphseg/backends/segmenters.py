@@ -99,6 +99,8 @@ def geometric_segments(
     rgb: np.ndarray | None = None,
     *,
     plane_tolerance: float = 0.01,
+    plane_normal_angle: float | None = 0.6,
+    normal_step: int = 4,
     max_distance: float | str | None = "auto",
     depth_abs: float = 0.01,
     depth_rel: float = 0.02,
@@ -107,6 +109,8 @@ def geometric_segments(
     color_blur: float = 2.0,
     min_area: int = 60,
     fill_radius: int = 4,
+    color_regions: float | None = 16.0,
+    region_scale: float = 100.0,
     rng: Any = None,
 ) -> np.ndarray:
     """Segment a camera-frame point map into object parts.
@@ -118,7 +122,9 @@ def geometric_segments(
     rgb : uint8 ``[H, W, 3]``, optional
         For colour edges.
     plane_tolerance : float
-        Points within this distance of the RANSAC table plane, or behind it,
+        Points within this distance of the RANSAC table plane whose normal is
+        within ``plane_normal_angle`` of the plane's (normals from central
+        differences over ``normal_step`` pixels), and points behind the plane,
         are not segmented.
     max_distance : float, "auto" or None
         Points farther from the camera are not segmented ("auto": 1.5 x the
@@ -132,6 +138,14 @@ def geometric_segments(
     min_area : int
         Smaller components are absorbed by the nearest large one (within
         ``fill_radius`` pixels) or dropped, scaled with the image area from 640x480.
+    color_regions : float, optional
+        Split each depth component by colour regions: Felzenszwalb superpixels
+        (``region_scale``) inside the component, then adjacent regions are
+        merged greedily, closest mean chromaticity (CIE a*, b*; lightness is
+        left out so shading does not split an object's faces) first with the
+        means updated, while the closest pair differs by less than this. Region
+        means resist texture better than edge cuts, whose gaps let touching
+        objects of different colours leak into one part.
 
     Returns
     -------
@@ -151,6 +165,7 @@ def geometric_segments(
     h, w = P.shape[:2]
     valid = np.isfinite(P).all(-1)
     fg = valid.copy()
+    foot = np.zeros((h, w), bool)
     dist = np.linalg.norm(np.where(valid[..., None], P, 0), axis=-1)
     if valid.sum() >= 50:
         gen = np.random.default_rng(rng)
@@ -161,6 +176,10 @@ def geometric_segments(
             if offset < 0:  # camera (origin) on the positive side
                 normal, offset = -normal, -offset
             sd = np.where(valid, P @ normal.astype(np.float32) + np.float32(offset), -np.inf)
+            band = np.abs(sd) <= plane_tolerance
+            if plane_normal_angle is not None:  # the foot of objects: in the band but not facing up
+                cos = np.abs(point_normals(P, normal_step) @ normal.astype(np.float32))
+                foot = band & (cos < np.cos(plane_normal_angle)) & (dist > 0)
             fg &= sd > plane_tolerance
         if max_distance is not None:
             md = 1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance)
@@ -190,6 +209,8 @@ def geometric_segments(
     s, d = np.concatenate(src), np.concatenate(dst)
     _, comp = connected_components(coo_matrix((np.ones(s.size, np.int8), (s, d)), shape=(h * w, h * w)), directed=False)
     comp = comp.reshape(h, w)
+    if color_regions is not None and rgb is not None:
+        comp = _split_by_color_regions(comp, fg, np.asarray(rgb), color_regions, region_scale)
     sizes = np.bincount(comp[fg], minlength=comp.max() + 1)
     min_px = max(4, int(min_area * h * w / (640 * 480)))
     big = sizes >= min_px
@@ -198,13 +219,100 @@ def geometric_segments(
     lut = np.zeros(comp.max() + 1, np.int32)
     lut[np.flatnonzero(big)] = np.arange(1, int(big.sum()) + 1, dtype=np.int32)
     labels = np.where(keep, lut[comp], 0).astype(np.int32)
-    # absorb small fragments and cut lines into the nearest large part
+    # absorb small fragments and cut lines into the nearest large part; the foot of objects
+    # (table band, not facing up) goes to the nearest part too, without joining parts
     holes = fg & ~keep
-    if holes.any() and keep.any() and fill_radius > 0:
+    if max_distance is not None and foot.any():
+        foot &= dist <= (1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance))
+    if (holes.any() or foot.any()) and keep.any() and fill_radius > 0:
         dmap, (iy, ix) = ndimage.distance_transform_edt(~keep, return_indices=True)
         near = holes & (dmap <= fill_radius)
+        near |= foot & (dmap <= fill_radius * 4 * max(w / 640, 0.25))
+        # only pixels continuous in 3D with the part they would join (no jump across a depth edge)
+        gap = np.linalg.norm(np.nan_to_num(P - P[iy, ix], nan=np.inf), axis=-1)
+        near &= gap <= thr
         labels[near] = labels[iy[near], ix[near]]
     return labels
+
+
+def _split_by_color_regions(comp: np.ndarray, fg: np.ndarray, rgb: np.ndarray, threshold: float, scale: float) -> np.ndarray:
+    """Refine components by colour regions merged on mean Lab colour (see :func:`geometric_segments`)."""
+    import cv2
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from skimage.segmentation import felzenszwalb
+
+    h, w = comp.shape
+    area = h * w / (640 * 480)
+    sp = felzenszwalb(rgb, scale=scale, sigma=0.8, min_size=max(4, int(30 * area)))
+    # regions = (depth component, superpixel) pairs inside the foreground
+    key = comp.astype(np.int64) * (int(sp.max()) + 1) + sp
+    key = np.where(fg, key, -1)
+    uniq, region = np.unique(key.ravel(), return_inverse=True)
+    region = region.reshape(h, w)
+    n = uniq.size
+    # chromaticity only (a*, b*): shading changes lightness, not hue, so the faces of one
+    # object under different light stay together while differently coloured objects split
+    lab = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2LAB).astype(np.float64).reshape(-1, 3)[:, 1:]
+    cnt = np.bincount(region.ravel(), minlength=n).astype(np.float64)
+    mean = np.stack([np.bincount(region.ravel(), weights=lab[:, k], minlength=n) for k in range(2)], 1) / np.maximum(cnt, 1)[:, None]
+    region_comp = np.where(uniq >= 0, uniq // (int(sp.max()) + 1), -1)
+    a = np.concatenate([region[:, :-1].ravel(), region[:-1, :].ravel()])
+    b = np.concatenate([region[:, 1:].ravel(), region[1:, :].ravel()])
+    ok = (a != b) & (uniq[a] >= 0) & (uniq[b] >= 0) & (region_comp[a] == region_comp[b])
+    lo, hi = np.minimum(a[ok], b[ok]), np.maximum(a[ok], b[ok])
+    pairs = np.unique(lo * n + hi)
+    return _merge_regions(region, cnt, mean, pairs // n, pairs % n, threshold)
+
+
+def _merge_regions(region: np.ndarray, count: np.ndarray, mean: np.ndarray, a: np.ndarray, b: np.ndarray, threshold: float) -> np.ndarray:
+    """Greedy hierarchical merging of adjacent regions by mean colour (closest pair first, means updated).
+
+    Unlike single linkage, a chain of similar neighbours cannot drag two
+    different colours together: every merge compares the merged means.
+    O((R + A) log A) for R regions and A adjacencies (a heap, Python loop over merges).
+    """
+    import heapq
+
+    n = count.size
+    parent = np.arange(n)
+    cnt = count.astype(np.float64).copy()
+    mu = mean.copy()
+    nbrs: list[set[int]] = [set() for _ in range(n)]
+    for x, y in zip(a.tolist(), b.tolist()):
+        nbrs[x].add(y)
+        nbrs[y].add(x)
+    heap = [(float(np.linalg.norm(mu[x] - mu[y])), x, y) for x, y in zip(a.tolist(), b.tolist())]
+    heapq.heapify(heap)
+    alive = np.ones(n, bool)
+    while heap:
+        d, x, y = heapq.heappop(heap)
+        if d >= threshold:
+            break
+        if not (alive[x] and alive[y]) or y not in nbrs[x]:
+            continue
+        if abs(float(np.linalg.norm(mu[x] - mu[y])) - d) > 1e-9:
+            continue  # stale entry
+        # merge y into x
+        mu[x] = (mu[x] * cnt[x] + mu[y] * cnt[y]) / (cnt[x] + cnt[y])
+        cnt[x] += cnt[y]
+        alive[y] = False
+        parent[y] = x
+        for z in nbrs[y]:
+            nbrs[z].discard(y)
+            if z != x:
+                nbrs[z].add(x)
+                nbrs[x].add(z)
+        nbrs[x].discard(y)
+        nbrs[y] = set()
+        for z in nbrs[x]:
+            heapq.heappush(heap, (float(np.linalg.norm(mu[x] - mu[z])), min(x, z), max(x, z)))
+    while True:  # resolve merge chains
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            break
+        parent = nxt
+    return parent[region]
 
 
 class GeometricSegmenter:

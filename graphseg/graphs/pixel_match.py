@@ -119,10 +119,12 @@ def pixel_match_ratios(
         ``"area"``: the paper's ``h / min(area)``, match counts summed over
         view pairs. ``"hits"``: the official code's ``h / min(hits)``, where
         ``hits(m)`` counts the matches (of all view pairs) that land in ``m``
-        with a node on the other side too. ``"pair_hits"``: the same ratio
-        computed per view pair, so it estimates the fraction of the smaller
-        mask that maps into the other whatever the match density and the
-        number of pairs; a node pair seen in several view pairs keeps its
+        with a node on the other side too. ``"pair_hits"``: per view pair,
+        ``h / min(out(m1), out(m2))`` where ``out(m)`` counts every match of
+        the pair that starts in ``m``, wherever it lands (another mask, the
+        background, a hole): the fraction of the smaller mask's matches that
+        land in the other mask, independent of the match density and the
+        number of pairs. A node pair seen in several view pairs keeps its
         largest ratio.
     points : list of ``[H, W, 3]``, optional
         World points, needed by ``consistency_percentile``.
@@ -155,12 +157,17 @@ def pixel_match_ratios(
         a, in_a = lookup_pixels(node_labels[i], m.xy_i)
         b, in_b = lookup_pixels(node_labels[j], m.xy_j)
         ok = keep & in_a & in_b & (a >= 0) & (b >= 0) & (a != b)
+        if normalization == "pair_hits":
+            # every match of this pair that starts (ends) in a node counts for it, wherever it lands
+            base = keep & in_a & in_b
+            out_a = np.bincount(a[base & (a >= 0)], minlength=num_nodes)
+            out_b = np.bincount(b[base & (b >= 0)], minlength=num_nodes)
         a, b = a[ok].astype(np.int64), b[ok].astype(np.int64)
         us.append(a)
         vs.append(b)
         if normalization == "pair_hits":
             pu, pv, pc = pair_counts(np.minimum(a, b), np.maximum(a, b), max(num_nodes, 1))
-            hits = np.bincount(a, minlength=num_nodes) + np.bincount(b, minlength=num_nodes)
+            hits = out_a + out_b  # a node lies in one view, so one of the two terms is 0
             hit_ratio.append((pu, pv, pc / np.maximum(np.minimum(hits[pu], hits[pv]), 1)))
     if not us or not sum(x.size for x in us):
         z = np.zeros(0, np.int64)

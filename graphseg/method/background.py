@@ -113,7 +113,7 @@ def background_masks(
             sd = pv @ plane[0] + plane[1]
             band = np.abs(sd) <= cfg.plane_tolerance
             if cos_max is not None:
-                nrm = point_normals(np.asarray(points[k], np.float32)).reshape(-1, 3)[v]
+                nrm = point_normals(np.asarray(points[k], np.float32), cfg.normal_step).reshape(-1, 3)[v]
                 cos = np.abs(nrm @ plane[0].astype(np.float32))
                 band &= ~(cos < cos_max)  # unknown normals (NaN) count as plane
             b |= band

@@ -5,7 +5,9 @@ between them is ``<= max_rotation`` (radians; default 1.2) and the distance
 between the camera centres is ``<= max_translation`` (default: the scene scale,
 i.e. the median camera-to-scene distance, times ``translation_scale``). The
 official code compared a pose with itself, so its translation term was always
-0; here both terms count. Mode ``all`` keeps every pair (meant for N <= 8).
+0; here both terms count. Mode ``all`` keeps every pair (meant for N <= 8);
+mode ``auto`` (the default) is ``all`` for N <= ``auto_max_views`` (8) views
+and ``pose`` above.
 
 Examples
 --------
@@ -65,14 +67,16 @@ def select_pairs(
     max_translation: float | None = None,
     translation_scale: float = 1.0,
     scale: float | None = None,
+    auto_max_views: int = 8,
 ) -> list[tuple[int, int]]:
     """View pairs ``(i, j)``, ``i < j``, to match.
 
     Parameters
     ----------
     cam_to_world : list of ``[4, 4]`` (or None when unknown)
-    mode : {"pose", "all"}
-        Without poses every pair is returned whatever the mode.
+    mode : {"pose", "all", "auto"}
+        Without poses every pair is returned whatever the mode. ``auto``:
+        ``all`` up to ``auto_max_views`` views, else ``pose``.
     max_rotation : float
         Radians.
     max_translation : float, optional
@@ -86,10 +90,12 @@ def select_pairs(
     """
     n = len(cam_to_world)
     everything = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    if mode not in ("pose", "all", "auto"):
+        raise ValueError(f"unknown pair mode {mode!r}; choose 'pose', 'all' or 'auto'")
+    if mode == "auto":
+        mode = "all" if n <= auto_max_views else "pose"
     if mode == "all" or any(T is None for T in cam_to_world):
         return everything
-    if mode != "pose":
-        raise ValueError(f"unknown pair mode {mode!r}; choose 'pose' or 'all'")
     t_max = max_translation if max_translation is not None else translation_scale * (scale if scale is not None else 1.0)
     out = []
     for i, j in everything:

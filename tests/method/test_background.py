@@ -30,7 +30,7 @@ def test_ransac_errors():
 
 
 def test_background_on_box_scene_keeps_objects_and_drops_table():
-    scene, _, _ = two_boxes_scene()
+    scene, _, _ = two_boxes_scene(shape=(240, 320))
     pts = [v.points for v in scene.views]
     bg, info = background_masks(pts, [v.camera_center for v in scene.views], BackgroundConfig(), rng=0)
     assert info.plane is not None and abs(info.plane[2]) > 0.999  # z = 0 plane

@@ -43,6 +43,12 @@ def test_default_translation_is_relative_to_scene_scale():
 
 def test_missing_poses_and_bad_mode():
     assert select_pairs([None, None, None]) == [(0, 1), (0, 2), (1, 2)]
+    far = [np.eye(4), np.eye(4)]
+    far[1] = far[1].copy()
+    far[1][0, 3] = 100.0
+    assert select_pairs(far, mode="auto", scale=1.0) == [(0, 1)]  # N <= 8: all pairs
+    assert select_pairs(far, mode="auto", scale=1.0, auto_max_views=1) == []
     with pytest.raises(ValueError, match="unknown pair mode"):
         select_pairs([np.eye(4), np.eye(4)], mode="nearest")
+    assert select_pairs([np.eye(4)], mode="auto") == []
     assert select_pairs([np.eye(4)]) == []

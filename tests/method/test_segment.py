@@ -58,7 +58,7 @@ def test_five_boxes_four_views_with_union_find():
         Box((-0.05, 0.12, 0.06), (0.07, 0.07, 0.12), 0.8, (220, 200, 40)),
         Box((0.13, 0.13, 0.025), (0.1, 0.06, 0.05), 0.0, (200, 60, 200)),
     ]
-    scene = box_scene(boxes, views=4, shape=(120, 160), radius=0.6, height=0.5, arc_deg=70)
+    scene = box_scene(boxes, views=4, shape=(240, 320), radius=0.6, height=0.5, arc_deg=70)
     masks = oracle_part_masks(scene, 2, rng=1)
     cfg = Config(contractor="union_find")
     r = segment(scene, masks, exact_matches(scene), cfg)
