@@ -38,9 +38,9 @@ from _common import print_table, write_json  # noqa: E402
 
 from graphseg.config import Config  # noqa: E402
 from graphseg.io import load_scene  # noqa: E402
+from graphseg.method.segment import segment  # noqa: E402
 from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
-from graphseg.method.segment import segment  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
 KEYS = ("iou", "f1", "iou_sel", "chamfer", "precision", "pixel_utility")

@@ -136,6 +136,12 @@ class Registry:
         self._failed.pop(name, None)
         return None
 
+    def unregister(self, name: str) -> None:
+        """Forget an in-process registration (entry points are not affected)."""
+        self._targets.pop(name, None)
+        self._loaded.pop(name, None)
+        self._failed.pop(name, None)
+
     def _eps(self) -> dict[str, EntryPoint]:
         if self._entry_points is None:
             found: dict[str, EntryPoint] = {}

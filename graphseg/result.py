@@ -137,7 +137,7 @@ class Result:
             raise ValueError(f"{path}: not a graphseg result file")
         n_views = len(f.meta["view_names"])
         a = f.arrays
-        bg = [a[f"background_{v}"].astype(bool) for v in range(n_views)] if f"background_0" in a else None
+        bg = [a[f"background_{v}"].astype(bool) for v in range(n_views)] if "background_0" in a else None
         return cls(
             labels=[a[f"labels_{v}"].astype(np.int32) for v in range(n_views)],
             mask_view=a["mask_view"],

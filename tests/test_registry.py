@@ -6,7 +6,13 @@ import pytest
 from graphseg import registry as regmod
 from graphseg.graphs import contractors, edge_adders
 from graphseg.graphs.pixel_match import PixelMatchEdgeAdder
-from graphseg.registry import MissingDependencyError, PluginLoadWarning, PluginNotFoundError, Registry, require
+from graphseg.registry import (
+    MissingDependencyError,
+    PluginLoadWarning,
+    PluginNotFoundError,
+    Registry,
+    require,
+)
 
 
 def test_builtins_by_name_class_instance():

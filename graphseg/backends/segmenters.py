@@ -238,8 +238,6 @@ def geometric_segments(
 def _split_by_color_regions(comp: np.ndarray, fg: np.ndarray, rgb: np.ndarray, threshold: float, scale: float) -> np.ndarray:
     """Refine components by colour regions merged on mean Lab colour (see :func:`geometric_segments`)."""
     import cv2
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
     from skimage.segmentation import felzenszwalb
 
     h, w = comp.shape

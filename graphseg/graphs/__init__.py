@@ -10,7 +10,14 @@ Examples
 [11, 7]
 """
 
-from .chamfer import Chamfer3DEdgeAdder, PointSets, chamfer_edges, directed_chamfer, node_point_sets, remove_outliers
+from .chamfer import (
+    Chamfer3DEdgeAdder,
+    PointSets,
+    chamfer_edges,
+    directed_chamfer,
+    node_point_sets,
+    remove_outliers,
+)
 from .coarsen import coarsen, group_reduce
 from .contract import (
     ScipyContraction,

@@ -19,7 +19,7 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any, Union
+from typing import Any
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from .graph import CorrespondenceGraph, GraphValidationError
 
 __all__ = ["coarsen", "group_reduce", "NODE_REDUCE", "EDGE_REDUCE"]
 
-Reduction = Union[str, tuple[str, str], Callable[[np.ndarray, np.ndarray, int], np.ndarray]]
+Reduction = str | tuple[str, str] | Callable[[np.ndarray, np.ndarray, int], np.ndarray]
 
 #: Default node-column reductions; ``None`` drops the column (it lives on in ``members``).
 NODE_REDUCE: dict[str, Reduction | None] = {

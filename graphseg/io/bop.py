@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import read_label, read_rgb, read_uint16
+from .images import check_size, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_bop", "is_bop"]
@@ -54,9 +54,7 @@ def read_bop(
     num_views: int | None = None,
 ) -> Scene:
     """Read one BOP scene folder."""
-    root = Path(path)
-    if not root.is_dir():
-        raise SceneError("no such folder", where=str(root), field="path")
+    root = require_folder(path)
     cams = _json(root / "scene_camera.json")
     gts = _json(root / "scene_gt.json") if (root / "scene_gt.json").exists() else {}
     ims = sorted(int(k) for k in cams)
@@ -84,9 +82,7 @@ def read_bop(
         rgb = read_rgb(_image(rgb_dir, im))
         depth = None
         if (root / "depth").exists():
-            raw = read_uint16(_image(root / "depth", im))
-            if raw.shape != rgb.shape[:2]:
-                raise SceneError(f"depth is {list(raw.shape)} but rgb is {list(rgb.shape[:2])}", where=str(root / "depth"), field="depth")
+            raw = check_size(read_uint16(_image(root / "depth", im)), rgb, root / "depth", "depth")
             depth = raw.astype(np.float32) * np.float32(float(cam.get("depth_scale", 1.0)) / 1000.0)
         inst = None
         entries = gts.get(str(im), [])

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import read_label, read_rgb, read_uint16
+from .images import check_size, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_graspnet", "is_graspnet"]
@@ -47,9 +47,7 @@ def read_graspnet(
     """Read a GraspNet-1Billion scene (``scene_XXXX`` or its camera folder)."""
     from scipy.io import loadmat
 
-    root = Path(path)
-    if not root.is_dir():
-        raise SceneError("no such folder", where=str(root), field="path")
+    root = require_folder(path)
     cam = _camera_dir(root, camera)
     poses = np.load(cam / "camera_poses.npy")
     if poses.ndim != 3 or poses.shape[1:] != (4, 4):
@@ -76,9 +74,7 @@ def read_graspnet(
         else:
             raise SceneError("no meta file and no camK.npy", where=str(meta_path), field="intrinsic_matrix")
         rgb = read_rgb(cam / "rgb" / f"{fr}.png")
-        raw = read_uint16(cam / "depth" / f"{fr}.png")
-        if raw.shape != rgb.shape[:2]:
-            raise SceneError(f"depth is {list(raw.shape)} but rgb is {list(rgb.shape[:2])}", where=str(cam / "depth" / f"{fr}.png"), field="depth")
+        raw = check_size(read_uint16(cam / "depth" / f"{fr}.png"), rgb, cam / "depth" / f"{fr}.png", "depth")
         lab_path = cam / "label" / f"{fr}.png"
         inst = read_label(lab_path) if lab_path.exists() else None
         T = table @ poses[k]

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..scene import SceneError
 
-__all__ = ["read_rgb", "read_uint16", "read_label", "write_png", "write_rgb"]
+__all__ = ["read_rgb", "read_uint16", "read_label", "write_png", "write_rgb", "require_folder", "check_size"]
 
 
 def _imread(path: str | os.PathLike[str], flags: int, field: str) -> np.ndarray:
@@ -100,3 +100,18 @@ def write_rgb(path: str | os.PathLike[str], rgb: np.ndarray) -> None:
     if not ok:  # pragma: no cover
         raise OSError(f"could not encode {path}")
     Path(path).write_bytes(buf.tobytes())
+
+
+def require_folder(path: str | os.PathLike[str]) -> Path:
+    """``Path(path)`` if it is an existing folder, else :class:`SceneError` on field ``path``."""
+    root = Path(path)
+    if not root.is_dir():
+        raise SceneError("no such folder", where=str(root), field="path")
+    return root
+
+
+def check_size(img: np.ndarray, rgb: np.ndarray, where: str | os.PathLike[str], field: str) -> np.ndarray:
+    """Return ``img`` if it has the image size of ``rgb``, else raise naming both sizes."""
+    if img.shape[:2] != rgb.shape[:2]:
+        raise SceneError(f"{field.split('.')[-1]} is {list(img.shape[:2])} but rgb is {list(rgb.shape[:2])}", where=str(where), field=field)
+    return img

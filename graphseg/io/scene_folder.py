@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View, is_rigid
-from .images import read_label, read_rgb, read_uint16, write_png, write_rgb
+from .images import check_size, read_label, read_rgb, read_uint16, write_png, write_rgb
 from .select import select_indices
 
 __all__ = ["read_scene_folder", "write_scene_folder", "FORMAT", "VERSION", "IMAGE_SUFFIXES"]
@@ -158,14 +158,10 @@ def read_scene_folder(
         rgb = read_rgb(root / vd["rgb"], field=f"{f}.rgb")
         depth = inst = K = T = None
         if vd.get("depth") is not None:
-            raw = read_uint16(root / vd["depth"], field=f"{f}.depth")
-            if raw.shape != rgb.shape[:2]:
-                raise SceneError(f"depth is {list(raw.shape)} but rgb is {list(rgb.shape[:2])}", where=str(root / vd["depth"]), field=f"{f}.depth")
+            raw = check_size(read_uint16(root / vd["depth"], field=f"{f}.depth"), rgb, root / vd["depth"], f"{f}.depth")
             depth = raw.astype(np.float32) / np.float32(scale)
         if vd.get("instances") is not None:
-            inst = read_label(root / vd["instances"], field=f"{f}.instances")
-            if inst.shape != rgb.shape[:2]:
-                raise SceneError(f"instances are {list(inst.shape)} but rgb is {list(rgb.shape[:2])}", where=str(root / vd["instances"]), field=f"{f}.instances")
+            inst = check_size(read_label(root / vd["instances"], field=f"{f}.instances"), rgb, root / vd["instances"], f"{f}.instances")
         if vd.get("K") is not None:
             K = _matrix(vd["K"], (3, 3), where, f"{f}.K")
             if K[0, 0] <= 0 or K[1, 1] <= 0:

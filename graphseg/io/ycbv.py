@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import read_label, read_rgb, read_uint16
+from .images import check_size, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_ycbv", "is_ycbv"]
@@ -54,9 +54,7 @@ def read_ycbv(
     num_views: int | None = None,
 ) -> Scene:
     """Read one YCB-Video video folder as a :class:`Scene` (views named by frame number)."""
-    root = Path(path)
-    if not root.is_dir():
-        raise SceneError("no such folder", where=str(root), field="path")
+    root = require_folder(path)
     frames = sorted(m.group(1) for f in root.iterdir() if (m := _FRAME.match(f.name)))
     if not frames:
         raise SceneError("no NNNNNN-color.png frames", where=str(root), field="views")
@@ -66,9 +64,7 @@ def read_ycbv(
         fr = frames[i]
         meta = _meta(root / f"{fr}-meta.mat")
         rgb = read_rgb(root / f"{fr}-color.png")
-        raw = read_uint16(root / f"{fr}-depth.png")
-        if raw.shape != rgb.shape[:2]:
-            raise SceneError(f"depth is {list(raw.shape)} but color is {list(rgb.shape[:2])}", where=str(root / f"{fr}-depth.png"), field="depth")
+        raw = check_size(read_uint16(root / f"{fr}-depth.png"), rgb, root / f"{fr}-depth.png", "depth")
         depth = raw.astype(np.float32) / np.float32(float(np.asarray(meta["factor_depth"]).ravel()[0]))
         K = np.asarray(meta["intrinsic_matrix"], np.float64)
         Rt = np.asarray(meta["rotation_translation_matrix"], np.float64)

@@ -9,11 +9,12 @@ class; it never becomes an object.
 Examples
 --------
 >>> import numpy as np
->>> rng = np.random.default_rng(0)
->>> pts = np.c_[rng.uniform(-1, 1, (500, 2)), np.zeros(500)]  # the plane z = 0
->>> normal, offset, inliers = fit_plane_ransac(pts, threshold=0.01, rng=0)
->>> np.round(np.abs(normal), 3).tolist(), round(abs(offset), 6), int(inliers.sum())
-([0.0, 0.0, 1.0], 0.0, 500)
+>>> ys, xs = np.mgrid[0:20, 0:20] / 20.0
+>>> table = np.dstack([xs, ys, np.zeros_like(xs)]).astype(np.float32)
+>>> table[8:12, 8:12, 2] = 0.1                       # a small box on the table
+>>> bg, info = background_masks([table], [np.array([0.5, 0.5, 1.0])], rng=0)
+>>> bool(bg[0][0, 0]), bool(bg[0][10, 10]), info.plane is not None
+(True, False, True)
 """
 
 from __future__ import annotations

@@ -29,7 +29,14 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
-from ..graphs import CorrespondenceGraph, Evidence, coarsen, contractors, edge_adders, node_point_sets
+from ..graphs import (
+    CorrespondenceGraph,
+    Evidence,
+    coarsen,
+    contractors,
+    edge_adders,
+    node_point_sets,
+)
 from ..graphs.contract import canonical_cluster
 from ..result import Result
 from ..scene import Matches, Scene, SceneError
@@ -44,7 +51,7 @@ MasksLike = Sequence[Any]
 def _check_inputs(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches]) -> None:
     if len(masks) != scene.num_views:
         raise ValueError(f"expected one mask set per view ({scene.num_views}) (got {len(masks)})")
-    for v, view in enumerate(scene.views):
+    for view in scene.views:
         if view.points is None:
             raise SceneError(
                 "no 3D point map; run a lifter first (depth + intrinsics + poses: lifter 'rgbd')",

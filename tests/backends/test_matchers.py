@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.matchers import FlowMatcher, ReprojectionMatcher, SiftMatcher, reprojection_matches, subsample_matches
+from graphseg.backends.matchers import (
+    FlowMatcher,
+    ReprojectionMatcher,
+    SiftMatcher,
+    reprojection_matches,
+    subsample_matches,
+)
 from graphseg.backends.registry import matchers
 from graphseg.scene import Matches, SceneError
 from graphseg.testing.scenes import TWO_BOXES, box_scene

@@ -3,7 +3,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from graphseg.graphs import CorrespondenceGraph, GraphValidationError, coarsen, group_reduce, union_find_contraction
+from graphseg.graphs import (
+    CorrespondenceGraph,
+    GraphValidationError,
+    coarsen,
+    group_reduce,
+    union_find_contraction,
+)
 
 
 def test_coarsen_hand_computed():

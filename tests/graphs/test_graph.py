@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from graphseg.graphs import CorrespondenceGraph, GraphValidationError, MaskNode, SuperNode, as_edge_index, coarsen, mask_node_table
+from graphseg.graphs import (
+    CorrespondenceGraph,
+    GraphValidationError,
+    MaskNode,
+    SuperNode,
+    as_edge_index,
+    coarsen,
+    mask_node_table,
+)
 
 from .conftest import make_graph
 
