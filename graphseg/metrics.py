@@ -149,7 +149,7 @@ def evaluate(
     g_obj = np.flatnonzero(gt_ids > 0)
     p_obj = np.flatnonzero(pred_ids > 0)
     # point sets of each gt / predicted object, ids mapped to rows/cols - 1
-    def sets(labels: Sequence[np.ndarray], ids: np.ndarray):  # type: ignore[no-untyped-def]
+    def sets(labels: Sequence[np.ndarray], ids: np.ndarray) -> Any:
         node = [np.searchsorted(ids, np.asarray(lab, np.int64)) - 1 for lab in labels]
         node = [np.where(np.isin(np.asarray(lab), ids[1:]), n, -1) for n, lab in zip(node, labels)]
         return node_point_sets(node, points, len(ids) - 1, voxel_size=voxel_size)

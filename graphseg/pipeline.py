@@ -122,6 +122,7 @@ def run(
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()
+    lifter_used = "given (scene had point maps)" if lifter is None and scene.has_points else (lifter if isinstance(lifter, str) else getattr(lifter, "name", None) or cfg.backends.lifter)
     scene = lift(scene, lifter, cfg)
     times["lift"] = time.perf_counter() - t0
     t = time.perf_counter()
@@ -140,11 +141,14 @@ def run(
     result = segment(scene, masks, matches, cfg, features=feats)
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
-    name = lambda x, default: x if isinstance(x, str) else (getattr(x, "name", None) or default)  # noqa: E731
+
+    def name(x: Any, default: str) -> str:
+        return x if isinstance(x, str) else (getattr(x, "name", None) or default) if x is not None else default
+
     result.info["pipeline"] = {
-        "segmenter": name(segmenter, cfg.backends.segmenter) if segmenter else cfg.backends.segmenter,
-        "matcher": name(matcher, cfg.backends.matcher) if matcher else cfg.backends.matcher,
-        "lifter": name(lifter, cfg.backends.lifter) if lifter else ("given" if lifter is None else cfg.backends.lifter),
+        "segmenter": name(segmenter, cfg.backends.segmenter),
+        "matcher": name(matcher, cfg.backends.matcher),
+        "lifter": lifter_used,
         "timings": times,
     }
     return result

@@ -34,7 +34,7 @@ class ColorFeatures:
         import cv2
 
         rgb = np.ascontiguousarray(view.rgb)
-        lab = cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB).astype(np.float32)
+        lab: np.ndarray = cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB).astype(np.float32)
         if self.blur > 0:
             lab = cv2.GaussianBlur(lab, (0, 0), self.blur)
         h, w = lab.shape[:2]

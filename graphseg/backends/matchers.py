@@ -158,7 +158,7 @@ def flow_matches(view_i: View, view_j: View, *, max_fb_error: float = 1.0, strid
     gi, gj = _gray(view_i.rgb), _gray(view_j.rgb)
     if gi.shape != gj.shape:
         gj = cv2.resize(gj, (gi.shape[1], gi.shape[0]))
-    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
+    dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)  # type: ignore[attr-defined]
     fwd = dis.calc(gi, gj, None)
     bwd = dis.calc(gj, gi, None)
     h, w = gi.shape
@@ -177,7 +177,7 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float = 0.8, ransac_thres
     """Sparse SIFT matches: Lowe ratio test, then ``cv2.USAC_MAGSAC`` fundamental-matrix verification."""
     import cv2
 
-    sift = cv2.SIFT_create()
+    sift = cv2.SIFT_create()  # type: ignore[attr-defined]
     ki, di = sift.detectAndCompute(_gray(view_i.rgb), None)
     kj, dj = sift.detectAndCompute(_gray(view_j.rgb), None)
     empty = Matches(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
@@ -187,9 +187,9 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float = 0.8, ransac_thres
     good = [m[0] for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
     if len(good) < 8:
         return empty
-    pi = np.float32([ki[m.queryIdx].pt for m in good])
-    pj = np.float32([kj[m.trainIdx].pt for m in good])
-    dist = np.float32([m.distance for m in good])
+    pi = np.array([ki[m.queryIdx].pt for m in good], np.float32)
+    pj = np.array([kj[m.trainIdx].pt for m in good], np.float32)
+    dist = np.array([m.distance for m in good], np.float32)
     _, inl = cv2.findFundamentalMat(pi, pj, cv2.USAC_MAGSAC, ransac_threshold, 0.999, 10000)
     if inl is None:
         return empty

@@ -163,7 +163,7 @@ def geometric_segments(
 
     P = np.asarray(points, np.float32)
     h, w = P.shape[:2]
-    valid = np.isfinite(P).all(-1)
+    valid = np.asarray(np.isfinite(P).all(-1))
     fg = valid.copy()
     foot = np.zeros((h, w), bool)
     dist = np.linalg.norm(np.where(valid[..., None], P, 0), axis=-1)
@@ -187,7 +187,7 @@ def geometric_segments(
     # pixel graph: 4-neighbour links between similar foreground pixels
     idx = np.arange(h * w).reshape(h, w)
     thr = depth_abs + depth_rel * np.where(valid, P[..., 2], 0)
-    lab_col = None
+    lab_col: np.ndarray | None = None
     if color_threshold is not None and rgb is not None:
         import cv2
 
@@ -201,7 +201,7 @@ def geometric_segments(
         ok &= np.linalg.norm(P[sl_a] - P[sl_b], axis=-1) <= np.minimum(thr[sl_a], thr[sl_b])
         if lab_col is not None:
             ok &= np.linalg.norm(lab_col[sl_a] - lab_col[sl_b], axis=-1) <= color_threshold
-        if nrm is not None:
+        if nrm is not None and normal_angle is not None:
             cos = np.einsum("...k,...k->...", nrm[sl_a], nrm[sl_b])
             ok &= ~(cos < np.cos(normal_angle))
         src.append(idx[sl_a][ok])

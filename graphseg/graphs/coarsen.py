@@ -134,6 +134,7 @@ def group_reduce(
                 out = out / denom[:, None]
         return out.reshape((num_groups,) + values.shape[1:])
     if how in ("min", "max"):
+        op: Any
         if flat.dtype.kind == "f":
             init = np.inf if how == "min" else -np.inf
             op = np.fmin if how == "min" else np.fmax

@@ -262,12 +262,12 @@ def mask_node_table(
             pid, p = ids[ok], p[ok]
             cnt = np.bincount(pid, minlength=m)
             with np.errstate(invalid="ignore", divide="ignore"):
-                c3 = np.stack([np.bincount(pid, weights=p[:, k], minlength=m) for k in range(3)], 1) / cnt[:, None]
+                c3 = np.stack([np.bincount(pid, weights=p[:, ax], minlength=m) for ax in range(3)], 1) / cnt[:, None]
             lo = np.full((m, 3), np.inf)
             hi = np.full((m, 3), -np.inf)
-            for k in range(3):
-                np.minimum.at(lo[:, k], pid, p[:, k])
-                np.maximum.at(hi[:, k], pid, p[:, k])
+            for ax in range(3):
+                np.minimum.at(lo[:, ax], pid, p[:, ax])
+                np.maximum.at(hi[:, ax], pid, p[:, ax])
             box = np.concatenate([lo, hi], 1)
             box[cnt == 0] = np.nan
             cols["num_points"].append(cnt[present].astype(np.int64))
@@ -428,11 +428,11 @@ class CorrespondenceGraph:
                     f"expected node_attr[{name!r}] of length num_nodes={self.num_nodes} "
                     f"(got {col.shape[0] if col.ndim else 'a scalar'})"
                 )
-        for name, k in (("bbox", 4), ("centroid", 2), ("centroid_3d", 3), ("bbox_3d", 6)):
-            col = self.node_attr.get(name)
-            if col is not None and (col.ndim != 2 or col.shape[1] != k):
+        for name, width in (("bbox", 4), ("centroid", 2), ("centroid_3d", 3), ("bbox_3d", 6)):
+            vec = self.node_attr.get(name)
+            if vec is not None and (vec.ndim != 2 or vec.shape[1] != width):
                 raise GraphValidationError(
-                    f"expected node_attr[{name!r}] of shape [N, {k}] (got {list(col.shape)})"
+                    f"expected node_attr[{name!r}] of shape [N, {width}] (got {list(vec.shape)})"
                 )
         if self.masks is not None:
             for v, m in enumerate(self.masks):
@@ -442,9 +442,9 @@ class CorrespondenceGraph:
                     )
         mem = self.members
         n = mem["node"].shape[0]
-        for k in ("view", "mask_id"):
-            if mem[k].shape != (n,):
-                raise GraphValidationError(f"expected members[{k!r}] of shape [{n}] (got {list(mem[k].shape)})")
+        for key in ("view", "mask_id"):
+            if mem[key].shape != (n,):
+                raise GraphValidationError(f"expected members[{key!r}] of shape [{n}] (got {list(mem[key].shape)})")
         if n and (mem["node"].min() < 0 or mem["node"].max() >= self.num_nodes):
             raise GraphValidationError(
                 f"expected members['node'] in [0, num_nodes={self.num_nodes}) (got {int(mem['node'].max())})"

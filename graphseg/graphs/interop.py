@@ -134,6 +134,7 @@ def from_networkx(g: Any) -> CorrespondenceGraph:
         edge_rows = list(g.edges(data=True))
     node_rows = [dict(g.nodes[u]) for u in nodes]
     erows = [d for _, _, d in edge_rows]
+    schema: dict[str, Any]
     if raw is None:
         def infer(rows: list[dict[str, Any]]) -> dict[str, Any]:
             common = set.intersection(*(set(r) for r in rows)) if rows else set()

@@ -135,7 +135,7 @@ def save_native(
     path = os.fspath(path)
     tmp = f"{path}.tmp-{os.getpid()}.npz"
     try:
-        np.savez_compressed(tmp, **store)
+        np.savez_compressed(tmp, **store)  # type: ignore[arg-type]
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -151,9 +151,10 @@ def pixel_match_ratios(
             continue
         keep = np.ones(len(m), bool)
         if consistency_percentile is not None:
-            if points is None or points[i] is None or points[j] is None:
+            pi, pj = (None, None) if points is None else (points[i], points[j])
+            if pi is None or pj is None:
                 raise ValueError("consistency_percentile needs world points for both views")
-            keep = _consistent(m, points[i], points[j], consistency_percentile)
+            keep = _consistent(m, pi, pj, consistency_percentile)
         a, in_a = lookup_pixels(node_labels[i], m.xy_i)
         b, in_b = lookup_pixels(node_labels[j], m.xy_j)
         ok = keep & in_a & in_b & (a >= 0) & (b >= 0) & (a != b)

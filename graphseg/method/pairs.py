@@ -37,7 +37,7 @@ def pose_distance(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
     return float(np.arccos(cos)), float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
 
 
-def scene_scale(points: Sequence[np.ndarray | None], cam_to_world: Sequence[np.ndarray]) -> float:
+def scene_scale(points: Sequence[np.ndarray | None], cam_to_world: Sequence[np.ndarray | None]) -> float:
     """Median over views of the median distance from the camera to its valid points (metres).
 
     Falls back to the median distance between camera centres (or 1.0) without points.

@@ -45,7 +45,7 @@ class Rendering:
     points: np.ndarray
 
 
-def look_at(eye: Sequence[float], target: Sequence[float], up: Sequence[float] = (0, 0, 1)) -> np.ndarray:
+def look_at(eye: Sequence[float] | np.ndarray, target: Sequence[float] | np.ndarray, up: Sequence[float] = (0, 0, 1)) -> np.ndarray:
     """``cam_to_world`` ``[4, 4]`` of a camera at ``eye`` looking at ``target`` (OpenCV axes).
 
     Examples

@@ -67,7 +67,7 @@ def oracle_part_masks(scene: Scene, parts: int = 2, *, rng: Any = None, table_ma
                 continue
             masks += split_mask(v.instances == k, parts, rng=gen)
         if table_mask:
-            masks.append((v.instances == 0) & (v.depth > 0))
+            masks.append((v.instances == 0) & np.isfinite(np.asarray(v.points, np.float32)).all(-1))
         out.append(masks)
     return out
 
