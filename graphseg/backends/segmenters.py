@@ -179,7 +179,9 @@ def geometric_segments(
             band = np.abs(sd) <= plane_tolerance
             if plane_normal_angle is not None:  # the foot of objects: in the band but not facing up
                 cos = np.abs(point_normals(P, normal_step) @ normal.astype(np.float32))
-                foot = band & (cos < np.cos(plane_normal_angle)) & (dist > 0)
+                # above the table's own noise: the ring of table pixels whose normals mix with an
+                # object's (at its silhouette) sits at height ~0 and stays table
+                foot = band & (cos < np.cos(plane_normal_angle)) & (sd > 0.3 * plane_tolerance)
             fg &= sd > plane_tolerance
         if max_distance is not None:
             md = 1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance)
