@@ -132,6 +132,28 @@ class View:
             raise SceneError("view has no pose", where=self.name, field="cam_to_world")
         return np.asarray(self.cam_to_world, np.float64)[:3, 3]
 
+    def camera_points(self) -> np.ndarray:
+        """Camera-frame points ``[H, W, 3]`` float32 (NaN = invalid).
+
+        From ``points`` and ``cam_to_world`` when both exist, else from ``depth``
+        and ``K``; a point map without a pose is taken as camera-frame already.
+        """
+        if self.points is not None and self.cam_to_world is not None:
+            T = np.asarray(self.cam_to_world, np.float64)
+            return ((np.asarray(self.points, np.float64) - T[:3, 3]) @ T[:3, :3]).astype(np.float32)
+        if self.depth is not None and self.K is not None:
+            return backproject(self.depth, self.K)
+        if self.points is not None:
+            return np.asarray(self.points, np.float32)
+        raise SceneError("needs depth + K or a point map", where=self.name, field="depth")
+
+    def z_depth(self) -> np.ndarray:
+        """Depth along the optical axis ``[H, W]`` float32, NaN where invalid."""
+        if self.depth is not None:
+            d = np.asarray(self.depth, np.float32)
+            return np.where(d > 0, d, np.float32(np.nan))
+        return self.camera_points()[..., 2]
+
     def replace(self, **changes: Any) -> View:
         """A shallow copy with some fields replaced."""
         return replace(self, **changes)

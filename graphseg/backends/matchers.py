@@ -60,17 +60,6 @@ def subsample_matches(m: Matches, n: int | None, *, rng: Any = None) -> Matches:
     return Matches(m.xy_i[idx], m.xy_j[idx], m.certainty[idx])
 
 
-def _z_depth(view: View) -> np.ndarray:
-    if view.depth is not None:
-        d = np.asarray(view.depth, np.float32)
-        return np.where(d > 0, d, np.nan)
-    if view.points is None or view.cam_to_world is None:
-        raise SceneError("reprojection needs depth or points plus a pose", where=view.name, field="points")
-    T = np.asarray(view.cam_to_world, np.float64)
-    p = np.asarray(view.points, np.float64) - T[:3, 3]
-    return (p @ T[:3, :3])[..., 2].astype(np.float32)
-
-
 def reprojection_matches(
     view_i: View,
     view_j: View,
@@ -128,7 +117,7 @@ def reprojection_matches(
     ui, vi = np.rint(u).astype(np.int64), np.rint(v).astype(np.int64)
     inside = (ui >= 0) & (ui < W) & (vi >= 0) & (vi < H)
     u, v, ui, vi, z, xs, ys = u[inside], v[inside], ui[inside], vi[inside], z[inside], xs[inside], ys[inside]
-    dj = _z_depth(view_j)[vi, ui]
+    dj = view_j.z_depth()[vi, ui]
     tol = abs_tol + rel_tol * z
     dz = np.abs(z - dj)
     vis = np.isfinite(dj) & (dz <= tol)

@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import fit_plane_ransac, point_normals
-from ..scene import SceneError, View, backproject
+from ..scene import SceneError, View
 from .parts import split_mask
 
 __all__ = [
@@ -81,17 +81,6 @@ class SuperpixelSegmenter:
         else:
             lab = slic(rgb, n_segments=self.n_segments, compactness=10, start_label=0)
         return (lab + 1).astype(np.int32)
-
-
-def _camera_points(view: View) -> np.ndarray:
-    if view.points is not None and view.cam_to_world is not None:
-        T = np.asarray(view.cam_to_world, np.float64)
-        return ((np.asarray(view.points, np.float64) - T[:3, 3]) @ T[:3, :3]).astype(np.float32)
-    if view.depth is not None and view.K is not None:
-        return backproject(view.depth, view.K)
-    if view.points is not None:
-        return np.asarray(view.points, np.float32)
-    raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth")
 
 
 def geometric_segments(
@@ -325,7 +314,11 @@ class GeometricSegmenter:
         self.options = options
 
     def __call__(self, view: View) -> np.ndarray:
-        return geometric_segments(_camera_points(view), view.rgb, rng=self.seed, **self.options)
+        try:
+            pts = view.camera_points()
+        except SceneError as err:
+            raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth") from err
+        return geometric_segments(pts, view.rgb, rng=self.seed, **self.options)
 
 
 def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.ndarray] | np.ndarray) -> Path:
