@@ -74,6 +74,7 @@ def main(argv=None):
     ap.add_argument("--config", help="config file (replaces the presets)")
     ap.add_argument("--presets", nargs="+", default=["rgbd", "paper"], help="Config.preset names to compare")
     ap.add_argument("--json", default="benchmarks/results/quality.json")
+    ap.add_argument("--matchers", nargs="*", default=["flow", "sift"], help="other matchers to compare with the default segmenter and the first preset")
     args = ap.parse_args(argv)
     bases = {"config": Config.load(args.config)} if args.config else {p: Config.preset(p) for p in args.presets}
     variants = {}
@@ -85,6 +86,7 @@ def main(argv=None):
     per_scene = []
     t0 = time.perf_counter()
     groups = [("synthetic", list(synthetic_scenes(args.quick))), ("ycbv", list(ycb_scenes()))]
+    default_masks: dict = {}
     for group, scenes in groups:
         for method, options in methods():
             seg = method.split()[0]
@@ -94,6 +96,8 @@ def main(argv=None):
                 scene = lift(scene, None, cfg)
                 masks = compute_masks(scene, seg, cfg)
                 matches = compute_matches(scene, None, cfg)
+                if seg == base.backends.segmenter:
+                    default_masks[name] = (scene, masks)
                 gt = [v.instances for v in scene.views]
                 pts = [v.points for v in scene.views]
                 for vname, vcfg in variants.items():
@@ -110,6 +114,23 @@ def main(argv=None):
                     row[k] = float(np.mean(vals)) if vals else None
                 rows.append(row)
                 print(f"  {group:9s} {method:18s} {vname:26s} iou {row['iou']:.3f} f1 {row['f1']:.3f} util {row['pixel_utility']:.3f}", flush=True)
+    first_cfg = next(iter(bases.values()))
+    for matcher in args.matchers:  # matchers other than reprojection, default segmenter, first preset
+        for group, scenes in groups:
+            acc = []
+            for name, _ in scenes:
+                scene, masks = default_masks[name]
+                matches = compute_matches(scene, matcher, first_cfg)
+                r = segment(scene, masks, matches, first_cfg)
+                m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
+                acc.append(m["mean"])
+            if acc:
+                row = {"scenes": group, "segmenter": f"{base.backends.segmenter} + {matcher}", "variant": f"GraphSeg [{next(iter(bases))}]", "n": len(acc)}
+                for k in KEYS:
+                    vals = [a[k] for a in acc if a.get(k) is not None]
+                    row[k] = float(np.mean(vals)) if vals else None
+                rows.append(row)
+                print(f"  {group:9s} {row['segmenter']:18s} {row['variant']:26s} iou {row['iou']:.3f} f1 {row['f1']:.3f}", flush=True)
     print()
     print_table(rows, ["scenes", "segmenter", "variant", "n", *KEYS])
     print("\nper scene:")

@@ -227,15 +227,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], *, quiet: bool = False) -> Any:
-    from .registry import MissingDependencyError
+def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int]) -> Any:
+    """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
+    from .sim.pybullet_scenes import synthesize
 
-    try:
-        from .sim.pybullet_scenes import synthesize
-
-        return synthesize(seed=seed, objects=objects, views=views, size=size)
-    except MissingDependencyError:
-        raise
+    return synthesize(seed=seed, objects=objects, views=views, size=size)
 
 
 def cmd_synth(args: argparse.Namespace) -> int:

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import importlib
 import warnings
-from collections.abc import Callable
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
@@ -233,12 +232,9 @@ class Registry:
         """
         if isinstance(spec, str):
             spec = self.get(spec)
-        if isinstance(spec, type) or (callable(spec) and not hasattr(spec, "__self__") and _is_factory(spec)):
+        if isinstance(spec, type):
             return spec(**kwargs)
         if kwargs:
             raise TypeError(f"cannot apply options {sorted(kwargs)} to an existing {self.kind} instance")
         return spec
 
-
-def _is_factory(obj: Callable[..., Any]) -> bool:
-    return bool(getattr(obj, "_graphseg_factory", False))

@@ -52,9 +52,6 @@ __all__ = [
     "mask_node_table",
 ]
 
-CRITERIA = ("pixel_match", "chamfer_3d", "dino")
-
-
 class GraphValidationError(ValueError):
     """Raised by :meth:`CorrespondenceGraph.validate` and boundary checks."""
 
