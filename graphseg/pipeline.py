@@ -41,6 +41,13 @@ def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None
     return registry.resolve(spec)
 
 
+def _name(spec: Any, default: str) -> str:
+    """The registry name of a backend given as a name, class or instance (``default`` for None)."""
+    if spec is None:
+        return default
+    return spec if isinstance(spec, str) else str(getattr(spec, "name", None) or default)
+
+
 def _progress(iterable: Any, desc: str, enabled: bool, total: int | None = None) -> Any:
     if not enabled:
         return iterable
@@ -122,7 +129,7 @@ def run(
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()
-    lifter_used = "given (scene had point maps)" if lifter is None and scene.has_points else (lifter if isinstance(lifter, str) else getattr(lifter, "name", None) or cfg.backends.lifter)
+    lifter_used = "given (scene had point maps)" if lifter is None and scene.has_points else _name(lifter, cfg.backends.lifter)
     scene = lift(scene, lifter, cfg)
     times["lift"] = time.perf_counter() - t0
     t = time.perf_counter()
@@ -141,13 +148,9 @@ def run(
     result = segment(scene, masks, matches, cfg, features=feats)
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
-
-    def name(x: Any, default: str) -> str:
-        return x if isinstance(x, str) else (getattr(x, "name", None) or default) if x is not None else default
-
     result.info["pipeline"] = {
-        "segmenter": name(segmenter, cfg.backends.segmenter),
-        "matcher": name(matcher, cfg.backends.matcher),
+        "segmenter": _name(segmenter, cfg.backends.segmenter),
+        "matcher": _name(matcher, cfg.backends.matcher),
         "lifter": lifter_used,
         "timings": times,
     }
