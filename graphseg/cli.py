@@ -44,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has no point maps)")
+    r.add_argument("--masks", help="folder of precomputed masks per view (NAME.png label images or NAME.npz bool stacks); implies --segmenter precomputed")
     r.add_argument("--parts", type=int, help="parts per object for the oracle-parts segmenter (evaluation only)")
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
     r.add_argument("--seed", type=int, help="random seed")
@@ -176,6 +177,16 @@ def _config(args: argparse.Namespace) -> Any:
         cfg = cfg.model_copy(update={"seed": args.seed})
     if getattr(args, "no_3d", False):
         cfg = cfg.without_3d()
+    if getattr(args, "masks", None):
+        folder = Path(args.masks)
+        if not folder.is_dir():
+            raise BadInput(f"{folder}: masks: no such folder")
+        if args.segmenter not in (None, "precomputed"):
+            raise BadInput(f"{folder}: masks: --masks needs the precomputed segmenter (got --segmenter {args.segmenter})")
+        args.segmenter = "precomputed"
+        opts = dict(cfg.backends.options)
+        opts["precomputed"] = {**opts.get("precomputed", {}), "folder": str(folder.resolve())}
+        cfg = cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
     if getattr(args, "parts", None) is not None:
         opts = dict(cfg.backends.options)
         opts["oracle-parts"] = {**opts.get("oracle-parts", {}), "parts": args.parts}

@@ -184,3 +184,20 @@ def test_demo_small(tmp_path, capsys, monkeypatch):
     assert code == 0 and "report:" in stdout and "mean" in stdout
     assert (tmp_path / "demo" / "output" / "report.html").exists()
     assert (tmp_path / "demo" / "scene" / "scene.json").exists()
+
+
+def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
+    from graphseg.backends.segmenters import save_precomputed
+
+    s = read_scene_folder(scene_dir)
+    for v in s.views:
+        save_precomputed(tmp_path / "masks", v.name, v.instances.astype(np.int32))
+    code, stdout, _ = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--masks", tmp_path / "masks", "--quiet"], capsys)
+    assert code == 0 and "2 objects" in stdout
+    info = json.loads((tmp_path / "o" / "run.json").read_text())
+    assert info["pipeline"]["segmenter"] == "precomputed"
+    code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o2", "--masks", tmp_path / "nope"], capsys)
+    assert code == 2 and "masks" in err
+    (tmp_path / "masks" / "001.png").unlink()
+    code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o3", "--masks", tmp_path / "masks", "--quiet"], capsys)
+    assert code == 2 and "no masks for view '001'" in err and not (tmp_path / "o3").exists()
