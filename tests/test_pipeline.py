@@ -42,3 +42,15 @@ def test_dino_stage_runs_color_features():
     r = run(scene, cfg, segmenter="oracle-parts")
     assert "features" in r.info["pipeline"]["timings"]
     assert r.num_objects == 2
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_quality_floor_on_random_box_scenes(seed):
+    """A regression guard for the default backends + rgbd preset (measured 0.92-0.98 IoU)."""
+    from graphseg.metrics import evaluate
+    from graphseg.testing.scenes import random_boxes
+
+    scene = box_scene(random_boxes(seed, 5), views=4, shape=(240, 320), arc_deg=100, radius=0.6, height=0.5, rng=seed)
+    r = run(scene, Config.preset("rgbd"))
+    m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
+    assert m["mean"]["iou"] >= 0.9 and m["mean"]["pixel_utility"] >= 0.95
