@@ -132,10 +132,8 @@ def _run_scene(scene: Any, cfg: Any, out: Path, *, segmenter: Any, matcher: Any,
     from .output import write_output
     from .pipeline import lift, run
 
-    had_points = scene.has_points
-    scene = lift(scene, lifter, cfg)
+    scene = lift(scene, lifter, cfg)  # lifted once: run() reuses it and the metrics need its points
     result = run(scene, cfg, segmenter=segmenter, matcher=matcher, progress=progress)
-    result.info["pipeline"]["lifter"] = lifter or ("given (scene had point maps)" if had_points else cfg.backends.lifter)
     metrics = _evaluate(result, scene)
     try:
         path = write_output(out, result, scene, metrics=metrics, run_info=run_info)

@@ -57,11 +57,19 @@ def _progress(iterable: Any, desc: str, enabled: bool, total: int | None = None)
 
 
 def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scene:
-    """World point maps for every view; a scene that has them is returned as is unless a lifter is named."""
+    """World point maps for every view; a scene that has them is returned as is unless a lifter is named.
+
+    The lifted scene records the lifter in ``scene.meta["lifter"]`` (``"given"`` when the
+    scene came with point maps), so later steps can report it.
+    """
     cfg = config or Config()
     if lifter is None and scene.has_points:
+        if "lifter" not in scene.meta:
+            scene = Scene(scene.views, scene.objects, scene.name, {**scene.meta, "lifter": "given"})
         return scene
-    return _resolve(lifters, lifter or cfg.backends.lifter, cfg)(scene)
+    lifted = _resolve(lifters, lifter or cfg.backends.lifter, cfg)(scene)
+    lifted.meta["lifter"] = _name(lifter, cfg.backends.lifter)
+    return lifted
 
 
 def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = None, *, progress: bool = False) -> list[Any]:
@@ -129,7 +137,6 @@ def run(
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()
-    lifter_used = "given (scene had point maps)" if lifter is None and scene.has_points else _name(lifter, cfg.backends.lifter)
     scene = lift(scene, lifter, cfg)
     times["lift"] = time.perf_counter() - t0
     t = time.perf_counter()
@@ -151,7 +158,7 @@ def run(
     result.info["pipeline"] = {
         "segmenter": _name(segmenter, cfg.backends.segmenter),
         "matcher": _name(matcher, cfg.backends.matcher),
-        "lifter": lifter_used,
+        "lifter": scene.meta["lifter"],
         "timings": times,
     }
     return result

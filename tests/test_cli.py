@@ -195,7 +195,7 @@ def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
     code, stdout, _ = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--masks", tmp_path / "masks", "--quiet"], capsys)
     assert code == 0 and "2 objects" in stdout
     info = json.loads((tmp_path / "o" / "run.json").read_text())
-    assert info["pipeline"]["segmenter"] == "precomputed"
+    assert info["pipeline"]["segmenter"] == "precomputed" and info["pipeline"]["lifter"] == "rgbd"
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o2", "--masks", tmp_path / "nope"], capsys)
     assert code == 2 and "masks" in err
     (tmp_path / "masks" / "001.png").unlink()

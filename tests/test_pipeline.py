@@ -17,7 +17,9 @@ def test_run_lifts_depth_only_scene_and_rejects_rgb_only():
     scene = box_scene(TWO_BOXES, views=3, shape=(96, 128))
     depth_only = Scene([v.replace(points=None) for v in scene.views])
     cfg = Config(backends={"options": {"oracle-parts": {"parts": 1}}})
-    assert run(depth_only, cfg, segmenter="oracle-parts").num_objects == 2
+    r = run(depth_only, cfg, segmenter="oracle-parts")
+    assert r.num_objects == 2 and r.info["pipeline"]["lifter"] == "rgbd"
+    assert run(scene, cfg, segmenter="oracle-parts").info["pipeline"]["lifter"] == "given"
     rgb_only = Scene([v.replace(points=None, depth=None) for v in scene.views])
     with pytest.raises(SceneError, match="no depth"):
         run(rgb_only)

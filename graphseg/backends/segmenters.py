@@ -175,6 +175,7 @@ def geometric_segments(
         if max_distance is not None:
             md = 1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance)
             fg &= dist <= md
+            foot &= dist <= md
     # pixel graph: 4-neighbour links between similar foreground pixels
     idx = np.arange(h * w).reshape(h, w)
     thr = depth_abs + depth_rel * np.where(valid, P[..., 2], 0)
@@ -213,8 +214,6 @@ def geometric_segments(
     # absorb small fragments and cut lines into the nearest large part; the foot of objects
     # (table band, not facing up) goes to the nearest part too, without joining parts
     holes = fg & ~keep
-    if max_distance is not None and foot.any():
-        foot &= dist <= (1.5 * float(np.median(dist[valid])) if max_distance == "auto" else float(max_distance))
     if (holes.any() or foot.any()) and keep.any() and fill_radius > 0:
         dmap, (iy, ix) = ndimage.distance_transform_edt(~keep, return_indices=True)
         near = holes & (dmap <= fill_radius)
