@@ -182,14 +182,17 @@ def _config(args: argparse.Namespace) -> Any:
         if args.segmenter not in (None, "precomputed"):
             raise BadInput(f"{folder}: masks: --masks needs the precomputed segmenter (got --segmenter {args.segmenter})")
         args.segmenter = "precomputed"
-        opts = dict(cfg.backends.options)
-        opts["precomputed"] = {**opts.get("precomputed", {}), "folder": str(folder.resolve())}
-        cfg = cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
+        cfg = _with_backend_options(cfg, "precomputed", folder=str(folder.resolve()))
     if getattr(args, "parts", None) is not None:
-        opts = dict(cfg.backends.options)
-        opts["oracle-parts"] = {**opts.get("oracle-parts", {}), "parts": args.parts}
-        cfg = cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
+        cfg = _with_backend_options(cfg, "oracle-parts", parts=args.parts)
     return cfg
+
+
+def _with_backend_options(cfg: Any, backend: str, **options: Any) -> Any:
+    """A copy of ``cfg`` whose ``backends.options[backend]`` gains ``options``."""
+    opts = dict(cfg.backends.options)
+    opts[backend] = {**opts.get(backend, {}), **options}
+    return cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
 
 
 # ----------------------------------------------------------------------------- commands
@@ -291,8 +294,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 def cmd_export(args: argparse.Namespace) -> int:
     from .graphs import to_pyg, write_graphml
-    from .io import write_ply
-    from .output import read_output
+    from .output import read_output, write_object_clouds
 
     result, _ = read_output(args.out)
     if not (args.graphml or args.pyg or args.ply):
@@ -311,12 +313,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         torch.save(to_pyg(result.graph_2d), args.pyg)
         print(f"wrote {args.pyg}")
     if args.ply:
-        d = Path(args.ply)
-        d.mkdir(parents=True, exist_ok=True)
-        for k in range(1, result.num_objects + 1):
-            pts, cols = result.object_cloud(k)
-            write_ply(d / f"{k:03d}.ply", pts, cols)
-        print(f"wrote {result.num_objects} PLY files to {d}")
+        n = write_object_clouds(result, args.ply)
+        print(f"wrote {n} PLY files to {args.ply}")
     return 0
 
 

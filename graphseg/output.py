@@ -33,13 +33,23 @@ from .report import overlay, palette, render_report
 from .result import Result
 from .scene import Scene
 
-__all__ = ["write_output", "read_output", "RESULT_FILE"]
+__all__ = ["write_output", "read_output", "write_object_clouds", "RESULT_FILE"]
 
 RESULT_FILE = "result.npz"
 
 
 def _safe(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "view"
+
+
+def write_object_clouds(result: Result, folder: str | os.PathLike[str]) -> int:
+    """Write one PLY per object (``001.ply``, ...) into ``folder``; returns how many."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for k in range(1, result.num_objects + 1):
+        pts, cols = result.object_cloud(k)
+        write_ply(folder / f"{k:03d}.ply", pts, cols)
+    return result.num_objects
 
 
 def write_output(
@@ -64,7 +74,6 @@ def write_output(
         colors = palette(result.num_objects)
         (tmp / "labels").mkdir()
         (tmp / "overlays").mkdir()
-        (tmp / "objects").mkdir()
         overlays = []
         for v, (view, lab) in enumerate(zip(scene.views, result.labels)):
             name = _safe(result.view_names[v])
@@ -72,12 +81,7 @@ def write_output(
             ov = overlay(view.rgb, lab, colors)
             write_png(tmp / "overlays" / f"{name}.png", ov)
             overlays.append(ov)
-        all_pts, all_cols = [], []
-        for k in range(1, result.num_objects + 1):
-            pts, cols = result.object_cloud(k)
-            write_ply(tmp / "objects" / f"{k:03d}.ply", pts, cols)
-            all_pts.append(pts)
-            all_cols.append(np.repeat(colors[k][None], len(pts), 0))
+        write_object_clouds(result, tmp / "objects")
         write_graphml(result.graph_2d, tmp / "graph_2d.graphml")
         if result.graph_3d is not None:
             write_graphml(result.graph_3d, tmp / "graph_3d.graphml")
@@ -103,8 +107,8 @@ def write_output(
             title=f"graphseg: {scene.name}",
             view_names=result.view_names,
             overlays=overlays,
-            points=np.concatenate(all_pts) if all_pts else np.zeros((0, 3)),
-            point_colors=np.concatenate(all_cols) if all_cols else np.zeros((0, 3), np.uint8),
+            points=result.object_points.points,
+            point_colors=colors[result.object_points.node_of_point() + 1],
             metrics=metrics,
             summary=summary,
         )
