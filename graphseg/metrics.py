@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .graphs.chamfer import node_point_sets
+from .graphs.chamfer import directed_chamfer, node_point_sets
 from .graphs.pixel_match import pair_counts
 
 __all__ = ["iou", "f1_score", "chamfer_distance", "contingency", "evaluate", "METRIC_KEYS"]
@@ -74,11 +74,7 @@ def chamfer_distance(a: np.ndarray, b: np.ndarray) -> float:
     >>> chamfer_distance(np.array([[0.0, 0, 0]]), np.array([[0.0, 0, 1], [0, 0, 3]]))
     6.0
     """
-    if len(a) == 0 or len(b) == 0:
-        return float("inf")
-    da, _ = cKDTree(b).query(a, k=1)
-    db, _ = cKDTree(a).query(b, k=1)
-    return float(np.mean(da * da) + np.mean(db * db))
+    return directed_chamfer(a, b) + directed_chamfer(b, a)
 
 
 def contingency(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray], valid: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -181,9 +177,7 @@ def evaluate(
                 continue
             if pj not in ptrees:
                 ptrees[pj] = cKDTree(ppts)
-            da, _ = ptrees[pj].query(gpts, k=1)
-            db, _ = gtree.query(ppts, k=1)
-            c = float(np.mean(da * da) + np.mean(db * db))
+            c = directed_chamfer(gpts, ptrees[pj]) + directed_chamfer(ppts, gtree)
             if c < best:
                 best, best_k = c, k
         row["chamfer"] = best if best_k is not None else None

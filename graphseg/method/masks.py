@@ -45,7 +45,9 @@ def compose_masks(
     background : bool ``[H, W]``, optional
         The background class.
     max_overlap : float
-        Drop masks with ``|mask & background| / |mask| >= max_overlap``.
+        Drop masks with ``|mask & background| / |mask| >= max_overlap``; a mask
+        with no background pixel is never dropped (so ``max_overlap=0`` drops
+        every mask that touches the background, not every mask).
     min_area : int
         Drop masks with fewer visible pixels after painting.
 
@@ -75,7 +77,8 @@ def compose_masks(
         present = np.flatnonzero(area > 0)
         with np.errstate(invalid="ignore", divide="ignore"):
             frac = bg_hits / np.maximum(area, 1)
-        drop_bg = present[frac[present] >= max_overlap] if background is not None else np.zeros(0, np.int64)
+        hit = (frac[present] >= max_overlap) & (bg_hits[present] > 0)
+        drop_bg = present[hit] if background is not None else np.zeros(0, np.int64)
         lut = np.arange(k + 1, dtype=np.int32)
         lut[drop_bg + 1] = 0
         labels = lut[lab_in]
@@ -94,7 +97,8 @@ def compose_masks(
         drop = []
         if background is not None:
             for i, m in enumerate(stack):
-                if area[i] and (m & background).sum() / area[i] >= max_overlap:
+                hits = int((m & background).sum())
+                if hits and hits / area[i] >= max_overlap:
                     drop.append(i)
         drop_bg = np.array(drop, np.int64)
         dropped = set(drop)

@@ -116,7 +116,7 @@ def segment(
         m = masks[v]
         if isinstance(m, np.ndarray) and m.ndim == 3 and m.dtype == bool:
             m = list(m)
-        lab, info = compose_masks(m, background=bg[v], max_overlap=cfg.background.max_overlap if cfg.background.enabled else 1.0 + 1e-9, min_area=cfg.masks.min_area)
+        lab, info = compose_masks(m, background=bg[v], max_overlap=cfg.background.max_overlap, min_area=cfg.masks.min_area)
         if lab.shape != view.shape:
             raise ValueError(f"view {view.name}: masks are {list(lab.shape)} but the image is {list(view.shape)}")
         labels.append(lab)

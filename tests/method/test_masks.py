@@ -55,3 +55,16 @@ def test_errors():
         compose_masks([np.zeros((2, 2), bool), np.zeros((3, 3), bool)])
     with pytest.raises(ValueError, match=">= 0"):
         compose_masks(np.array([[-1, 0]]))
+
+
+def test_zero_overlap_threshold_drops_only_masks_touching_background():
+    bg = np.zeros((4, 4), bool)
+    bg[0, 0] = True
+    a = np.zeros((4, 4), bool)
+    a[:2, :2] = True  # touches the background pixel
+    b = np.zeros((4, 4), bool)
+    b[2:, 2:] = True
+    lab, info = compose_masks([a, b], background=bg, max_overlap=0.0)
+    assert info["dropped_background"] == [0] and info["kept"] == [1]
+    lab, info = compose_masks(np.array([[1, 1], [2, 2]]), background=np.zeros((2, 2), bool), max_overlap=0.0)
+    assert info["kept"] == [0, 1]
