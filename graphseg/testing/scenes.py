@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.matchers import reprojection_matches, subsample_matches
+from ..backends.matchers import ReprojectionMatcher
 from ..backends.parts import split_mask
 from ..scene import Matches, Scene, View
 from ..sim.boxes import Box, intrinsics, look_at, render_boxes
@@ -76,7 +76,8 @@ def exact_matches(scene: Scene, pairs: Sequence[tuple[int, int]] | None = None, 
     """Exact dense matches by reprojection for the given pairs (all pairs by default)."""
     n = scene.num_views
     pairs = pairs if pairs is not None else [(i, j) for i in range(n) for j in range(i + 1, n)]
-    return {(i, j): subsample_matches(reprojection_matches(scene[i], scene[j]), num_matches, rng=rng) for i, j in pairs}
+    matcher = ReprojectionMatcher(num_matches=num_matches, seed=rng)
+    return {(i, j): matcher(scene[i], scene[j]) for i, j in pairs}
 
 
 def two_boxes_scene(parts: int = 2, views: int = 3, shape: tuple[int, int] = (96, 128), seed: int = 0):
