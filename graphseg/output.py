@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from .graphs import write_graphml
-from .io.images import write_png
+from .io.images import unique_file_names, write_png
 from .io.ply import write_ply
 from .report import overlay, palette, render_report
 from .result import Result
@@ -86,35 +86,6 @@ KINDS = ("run", "synth", "demo", "export")
 MARKER_VERSION = 1
 _TMP = ".graphseg-tmp-"
 _OLD = ".graphseg-old-"
-
-
-# ----------------------------------------------------------------------------- names
-def _safe(name: str) -> str:
-    return "".join(c if (c.isascii() and c.isalnum()) or c in "-_." else "_" for c in name).lstrip(".") or "view"
-
-
-def unique_file_names(names: Sequence[str]) -> list[str]:
-    """File-system-safe, pairwise distinct (case-insensitively) stems for ``names``.
-
-    Characters other than ASCII letters, digits, ``-``, ``_`` and ``.`` become
-    ``_``; a stem already taken gets ``-2``, ``-3``, ... appended.
-
-    Examples
-    --------
-    >>> unique_file_names(["a/b", "a_b", "A_B", "ü"])
-    ['a_b', 'a_b-2', 'A_B-3', '_']
-    """
-    out: list[str] = []
-    taken: set[str] = set()
-    for n in names:
-        base = _safe(n)
-        cand, k = base, 1
-        while cand.lower() in taken:
-            k += 1
-            cand = f"{base}-{k}"
-        taken.add(cand.lower())
-        out.append(cand)
-    return out
 
 
 # ----------------------------------------------------------------------------- marker, targets
