@@ -161,7 +161,7 @@ class Config(_Model):
     backends: BackendConfig = Field(default_factory=BackendConfig)
     stages: list[list[str]] = Field(default_factory=lambda: [["pixel_match"], ["chamfer_3d"]])
     contractor: str = "star"
-    seed: int | None = 0
+    seed: int | None = Field(0, ge=0, description="random seed (None: fresh entropy)")
     adder_options: dict[str, dict[str, Any]] = Field(default_factory=dict)
 
     @field_validator("stages")
