@@ -67,6 +67,8 @@ __all__ = [
     "write_output",
     "read_output",
     "write_object_clouds",
+    "fill_output",
+    "stage_graph_files",
     "check_target",
     "atomic_folder",
     "atomic_file",
@@ -318,11 +320,19 @@ def write_output(
     """
     dest = check_target(out, kind, inputs=inputs, overwrite=overwrite)
     with atomic_folder(dest, kind) as tmp:
-        _fill_output(tmp, result, scene, metrics, run_info)
+        fill_output(tmp, result, scene, metrics=metrics, run_info=run_info)
     return dest
 
 
-def _fill_output(tmp: Path, result: Result, scene: Scene, metrics: dict[str, Any] | None, run_info: dict[str, Any] | None) -> None:
+def fill_output(
+    tmp: Path,
+    result: Result,
+    scene: Scene,
+    *,
+    metrics: dict[str, Any] | None = None,
+    run_info: dict[str, Any] | None = None,
+) -> None:
+    """Write the files of an output folder into the existing, empty folder ``tmp`` (no marker, no checks)."""
     colors = palette(result.num_objects)
     (tmp / "labels").mkdir()
     (tmp / "overlays").mkdir()

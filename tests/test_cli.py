@@ -33,7 +33,7 @@ def test_run_eval_export_info(scene_dir, tmp_path, capsys):
     out = tmp_path / "out"
     code, stdout, _ = run_cli(["run", scene_dir, "-o", out, "--quiet"], capsys)
     assert code == 0 and "2 objects" in stdout and "report:" in stdout
-    for name in ("labels/000.png", "overlays/000.png", "objects/001.ply", "graph_2d.graphml", "graph_3d.graphml", "result.npz", "config.yaml", "metrics.json", "report.html", "run.json"):
+    for name in ("labels/000.png", "overlays/000.png", "objects/001.ply", "graphs/stage0.graphml", "graphs/stage1.graphml", "result.npz", ".graphseg-output", "config.yaml", "metrics.json", "report.html", "run.json"):
         assert (out / name).exists(), name
     html = (out / "report.html").read_text()
     assert "http://" not in html and "https://" not in html  # works offline
@@ -44,8 +44,17 @@ def test_run_eval_export_info(scene_dir, tmp_path, capsys):
     m = json.loads((tmp_path / "m.json").read_text())
     assert m["mean"]["iou"] == pytest.approx(metrics["mean"]["iou"])
     code, stdout, _ = run_cli(["export", out, "--graphml", tmp_path / "g.graphml", "--ply", tmp_path / "ply", "--pyg", tmp_path / "g.pt"], capsys)
-    assert code == 0 and (tmp_path / "g.graphml").exists() and (tmp_path / "g_3d.graphml").exists() and (tmp_path / "g.pt").exists()
+    assert code == 0 and (tmp_path / "g.graphml").exists() and (tmp_path / "g_stage1.graphml").exists() and (tmp_path / "g.pt").exists()
     assert len(list((tmp_path / "ply").glob("*.ply"))) == 2
+    torch = pytest.importorskip("torch")
+    data = torch.load(tmp_path / "g.pt")  # plain torch.load (weights_only) works
+    assert data["edge_index"].shape[0] == 2
+    code, _, err = run_cli(["export", out, "--graphml", tmp_path / "g.graphml"], capsys)
+    assert code == 2 and "--overwrite" in err  # never replaces a file it did not create without --overwrite
+    code, _, _ = run_cli(["export", out, "--graphml", tmp_path / "g1.graphml", "--stage", "1"], capsys)
+    assert code == 0 and (tmp_path / "g1.graphml").exists() and not (tmp_path / "g1_stage1.graphml").exists()
+    code, _, _ = run_cli(["run", scene_dir, "-o", out, "--quiet"], capsys)
+    assert code == 0  # an earlier run output is replaced
     code, stdout, _ = run_cli(["info", out], capsys)
     assert code == 0 and "objects: 2" in stdout
     code, stdout, _ = run_cli(["info", scene_dir], capsys)
@@ -60,7 +69,7 @@ def test_run_options(scene_dir, tmp_path, capsys):
     info = json.loads((tmp_path / "o" / "run.json").read_text())
     assert info["views"] == ["000", "002"]
     assert "chamfer_3d" not in (tmp_path / "o" / "config.yaml").read_text().split("stages:")[1]
-    assert not (tmp_path / "o" / "graph_3d.graphml").exists()
+    assert not (tmp_path / "o" / "graphs" / "stage1.graphml").exists()
 
 
 def test_synth(tmp_path, capsys):
@@ -176,7 +185,9 @@ def test_internal_error_exit_1(monkeypatch, scene_dir, tmp_path, capsys):
 
     monkeypatch.setattr(pl, "run", boom)
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet"], capsys)
-    assert code == 1 and "internal error" in err and not (tmp_path / "o").exists()
+    assert code == 1 and "internal error" in err and "--debug" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+    code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet", "--debug"], capsys)
+    assert code == 1 and "Traceback" in err
 
 
 def test_demo_small(tmp_path, capsys, monkeypatch):

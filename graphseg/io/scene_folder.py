@@ -212,6 +212,7 @@ def write_scene_folder(scene: Scene, path: str | os.PathLike[str], *, depth_scal
 def fill_scene_folder(scene: Scene, folder: str | os.PathLike[str], *, depth_scale: float = 1000.0) -> None:
     """Write the files of a format-v1 scene into the existing (empty) ``folder``."""
     tmp = Path(folder)
+    tmp.mkdir(parents=True, exist_ok=True)
     views = []
     files = unique_file_names([v.name for v in scene.views])
     for v, stem in zip(scene.views, files):
