@@ -357,7 +357,8 @@ def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | 
         except (GraphValidationError, ValueError, OSError, EOFError) as err:
             if isinstance(err, SceneError):
                 raise
-            raise SceneError(f"cannot read .npz ({(str(err) or type(err).__name__).splitlines()[0]})", where=str(npz), field="masks") from err
+            text = (str(err) or type(err).__name__).splitlines()[0].replace(f"{npz}: ", "")
+            raise SceneError(f"cannot read .npz ({text})", where=str(npz), field="masks") from err
         if arr.ndim != 3 or arr.dtype.kind not in "biu":
             raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
         return list(arr.astype(bool))

@@ -109,7 +109,7 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
                     raise GraphValidationError(f"{path}: {name}: arrays need {total} bytes, more than the limit of {cap} (GRAPHSEG_MAX_ARRAY_BYTES)")
                 out[name] = (tuple(int(x) for x in shape), dtype)
     except (zipfile.BadZipFile, ValueError, EOFError, OSError, SyntaxError) as err:
-        if isinstance(err, FileNotFoundError):
+        if isinstance(err, (FileNotFoundError, GraphValidationError)):
             raise
         raise GraphValidationError(f"{path}: file: not a valid .npz ({str(err).splitlines()[0] if str(err) else type(err).__name__})") from err
     return out

@@ -48,13 +48,13 @@ def max_pixels() -> int:
 
 
 def quiet_opencv() -> None:
-    """Keep OpenCV's native ``[ WARN:0@...]`` log lines off stderr (errors are raised by us)."""
+    """Keep OpenCV's native ``[ WARN:0@...]`` / ``[ERROR:0@...]`` log lines off stderr (graphseg raises its own errors)."""
     import cv2
 
     try:
-        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     except AttributeError:  # pragma: no cover - very old OpenCV
-        cv2.setLogLevel(2)
+        cv2.setLogLevel(0)
 
 
 def image_size(head: bytes) -> tuple[int, int] | None:
