@@ -157,8 +157,8 @@ def _printable(text: str) -> str:
 
 
 def _warn(text: str, args: argparse.Namespace) -> None:
-    if not _flag(args, "quiet"):
-        print(_printable(f"graphseg: warning: {text}"), file=sys.stderr)
+    """One line on stderr (shown with --quiet too: it is about the user's result)."""
+    print(_printable(f"graphseg: warning: {text}"), file=sys.stderr)
 
 
 def _flag(args: argparse.Namespace, name: str) -> bool:
