@@ -212,3 +212,180 @@ def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
     (tmp_path / "masks" / "001.png").unlink()
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o3", "--masks", tmp_path / "masks", "--quiet"], capsys)
     assert code == 2 and "no masks for view '001'" in err and not (tmp_path / "o3").exists()
+
+
+# ------------------------------------------------------------------ degenerate input: a result, not a crash
+@pytest.fixture(scope="module")
+def small_scene(tmp_path_factory):
+    d = tmp_path_factory.mktemp("small") / "scene"
+    write_scene_folder(box_scene(TWO_BOXES, views=3, shape=(48, 64)), d)
+    return d
+
+
+def degenerate_empty_table(d, tmp):
+    for f in (d / "depth").glob("*.png"):
+        write_png(f, np.zeros((48, 64), np.uint16))
+    return []
+
+
+def degenerate_zero_masks(d, tmp):
+    m = tmp / "m"
+    m.mkdir()
+    for n in ("000", "001", "002"):
+        write_png(m / f"{n}.png", np.zeros((48, 64), np.uint16))
+    return ["--masks", m]
+
+
+def degenerate_huge_min_area(d, tmp):
+    (tmp / "c.yaml").write_text("masks:\n  min_area: 1000000\n")
+    return ["--config", tmp / "c.yaml"]
+
+
+@pytest.mark.parametrize("case", [degenerate_empty_table, degenerate_zero_masks, degenerate_huge_min_area], ids=lambda c: c.__name__)
+def test_degenerate_input_gives_an_empty_result(case, small_scene, tmp_path, capsys):
+    d = fresh(small_scene, tmp_path)
+    extra = case(d, tmp_path)
+    code, stdout, err = run_cli(["run", d, "-o", tmp_path / "o", "--quiet", *extra], capsys)
+    assert code == 0 and "0 objects" in stdout, err
+    assert err.strip().splitlines() == ["graphseg: warning: no usable masks (every mask was empty, background, or below masks.min_area): 0 objects"]
+    assert (tmp_path / "o" / "report.html").exists() and not list((tmp_path / "o" / "objects").glob("*.ply"))
+    code, stdout, _ = run_cli(["info", tmp_path / "o"], capsys)
+    assert code == 0 and "objects: 0" in stdout
+    code, _, _ = run_cli(["export", tmp_path / "o", "--graphml", tmp_path / "g.graphml", "--ply", tmp_path / "ply"], capsys)
+    assert code == 0
+
+
+def test_one_view_warns(small_scene, tmp_path, capsys):
+    code, stdout, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--views", "1", "--quiet"], capsys)
+    assert code == 0 and "2 objects in 1 views" in stdout
+    assert err.strip().splitlines() == ["graphseg: warning: only one view: no cross-view evidence, every mask is its own object"]
+
+
+# ------------------------------------------------------------------ least surprise
+def test_views_match_names_before_indices(small_scene, tmp_path, capsys):
+    d = fresh(small_scene, tmp_path)
+    doc = json.loads((d / "scene.json").read_text())
+    for v, name in zip(doc["views"], ["2", "0", "1"]):
+        v["name"] = name
+    (d / "scene.json").write_text(json.dumps(doc))
+    code, _, err = run_cli(["run", d, "-o", tmp_path / "o", "--views", "0,1", "--quiet"], capsys)
+    assert code == 0, err
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["views"] == ["0", "1"]  # names, not indices 0 and 1
+
+
+def test_partial_config_overrides_the_preset_in_use(small_scene, tmp_path, capsys):
+    from graphseg.config import Config
+
+    (tmp_path / "c.yaml").write_text("seed: 5\n")
+    code, _, _ = run_cli(["run", small_scene, "-o", tmp_path / "o", "--config", tmp_path / "c.yaml", "--quiet"], capsys)
+    assert code == 0
+    used = Config.load(tmp_path / "o" / "config.yaml")
+    assert used == Config.preset("rgbd", seed=5)
+
+
+def test_backend_option_flag(small_scene, tmp_path, capsys):
+    from graphseg.cli import parse_backend_option
+
+    assert parse_backend_option("oracle-parts.parts=3") == ("oracle-parts", "parts", 3)
+    assert parse_backend_option("x.flag=true") == ("x", "flag", True)
+    assert parse_backend_option("x.list=[1, 2]") == ("x", "list", [1, 2])
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--segmenter", "oracle-parts", "--backend-option", "oracle-parts.parts=1", "--quiet"], capsys)
+    assert code == 0, err
+    import yaml
+
+    cfg = yaml.safe_load((tmp_path / "o" / "config.yaml").read_text())
+    assert cfg["backends"]["options"]["oracle-parts"]["parts"] == 1
+
+
+def test_eval_against_a_scene_checks_view_names(small_scene, tmp_path, capsys):
+    code, _, _ = run_cli(["run", small_scene, "-o", tmp_path / "o", "--views", "0,1", "--quiet"], capsys)
+    assert code == 0
+    code, stdout, _ = run_cli(["eval", tmp_path / "o", "--scene", small_scene], capsys)
+    assert code == 0 and "mean" in stdout  # the matching views are picked by name
+
+
+# ------------------------------------------------------------------ interruption
+SLOW_RUN = """
+import sys, time
+import graphseg.output as o
+real = o.fill_output
+def slow(*a, **k):
+    real(*a, **k)
+    print("ready", flush=True)
+    time.sleep(60)
+o.fill_output = slow
+from graphseg.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("sig,code", [("SIGTERM", 143), ("SIGINT", 130)])
+def test_signal_leaves_nothing_behind(sig, code, small_scene, tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(repo)}
+    p = subprocess.Popen([sys.executable, "-c", SLOW_RUN, "run", str(small_scene), "-o", str(tmp_path / "out"), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    assert p.stdout.readline().strip() == "ready"
+    assert [q.name for q in tmp_path.iterdir() if ".graphseg-tmp-" in q.name]  # mid-write
+    p.send_signal(getattr(signal, sig))
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == code
+    assert err.strip().splitlines() == ["graphseg: interrupted; nothing written"]
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ run never modifies its inputs
+def _tree(root):
+    import hashlib
+    import os
+    from pathlib import Path
+
+    out = {}
+    for dirpath, _, files in os.walk(root):
+        for f in files:
+            p = Path(dirpath) / f
+            out[str(p.relative_to(root))] = (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mode)
+    return out
+
+
+def test_run_never_modifies_its_inputs(small_scene, tmp_path_factory):
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from graphseg.cli import main as cli_main
+
+    base = tmp_path_factory.mktemp("prop")
+    scene = base / "scene"
+    shutil.copytree(small_scene, scene)
+    masks = base / "masks"
+    s = read_scene_folder(scene)
+    from graphseg.backends.segmenters import save_precomputed
+
+    for v in s.views:
+        save_precomputed(masks, v.name, v.instances.astype(np.int32))
+    (base / "c.yaml").write_text("seed: 1\n")
+    before = _tree(base)
+    targets = st.sampled_from(["scene", "scene/x", "masks", "masks/y", ".", "c.yaml", "new", "new/deeper"])
+
+    @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(target=targets, overwrite=st.booleans(), use_masks=st.booleans(), use_config=st.booleans(), views=st.sampled_from([None, "0,2", "001"]))
+    def prop(target, overwrite, use_masks, use_config, views):
+        argv = ["run", str(scene), "-o", str(base / target), "--quiet"]
+        argv += ["--overwrite"] * overwrite + ["--masks", str(masks)] * use_masks + ["--config", str(base / "c.yaml")] * use_config
+        argv += ["--views", views] if views else []
+        import contextlib
+        import io
+
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            code = cli_main(argv)
+        assert code in (0, 2)
+        after = _tree(base)
+        assert {k: v for k, v in after.items() if not k.startswith("new")} == before
+        shutil.rmtree(base / "new", ignore_errors=True)
+
+    prop()
