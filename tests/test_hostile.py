@@ -836,3 +836,161 @@ def test_hostile(name, base, tmp_path, capfd, monkeypatch):
     assert "Traceback" not in err
     assert fragment in lines[0], (fragment, lines[0])
     assert snapshot(ws_root) == before  # nothing written, nothing left behind, inputs unchanged
+
+
+# ----------------------------------------------------------------------------- library boundaries
+def test_graphml_declaring_a_huge_shape_is_refused_before_allocating(tmp_path):
+    from graphseg.graphs import GraphValidationError, read_graphml
+
+    schema = json.dumps({"level": "mask", "node": {"bbox": {"dtype": "<i8", "shape": [10**6, 10**6]}}, "edge": {}, "meta": {}})
+    text = (
+        '<?xml version="1.0" encoding="utf-8"?><graphml xmlns="http://graphml.graphdrawing.org/xmlns">'
+        '<key id="d0" for="graph" attr.name="graphseg_schema" attr.type="string"/>'
+        f'<graph edgedefault="undirected"><data key="d0">{schema.replace("<", "&lt;").replace(chr(34), "&quot;")}</data>'
+        '<node id="0"/><node id="1"/></graph></graphml>'
+    )
+    p = tmp_path / "bomb.graphml"
+    p.write_text(text)
+    assert p.stat().st_size < 1000
+    with pytest.raises(GraphValidationError, match="more than the file can hold"):
+        read_graphml(p)
+
+
+def test_npz_declared_sizes_are_checked(tmp_path):
+    from graphseg.graphs import GraphValidationError
+    from graphseg.graphs.native import check_npz_sizes, load_native
+
+    np.savez_compressed(tmp_path / "a.npz", x=np.zeros(1000))
+    assert check_npz_sizes(tmp_path / "a.npz")["x"][0] == (1000,)
+    with pytest.raises(GraphValidationError, match="limit"):
+        check_npz_sizes(tmp_path / "a.npz", limit=100)
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, {"descr": "<f8", "fortran_order": False, "shape": (10**9,)})
+    with zipfile.ZipFile(tmp_path / "b.npz", "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("__header__.npy", buf.getvalue() + b"\0" * 16)
+    with pytest.raises(GraphValidationError, match="tampered"):
+        load_native(tmp_path / "b.npz")
+
+
+def test_yaml_alias_bomb_is_bounded_quickly():
+    import time
+
+    from graphseg.config import load_yaml_text
+
+    lines = ['a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    for i in range(1, 9):
+        prev, cur = chr(96 + i), chr(97 + i)
+        lines.append(f"{cur}: &{cur} [" + ",".join([f"*{prev}"] * 9) + "]")
+    text = "\n".join(lines)
+    assert len(text) < 600
+    t = time.perf_counter()
+    with pytest.raises(ValueError, match="aliases expand"):
+        load_yaml_text(text)
+    assert time.perf_counter() - t < 2
+
+
+def _two_boxes():
+    from graphseg.testing.scenes import two_boxes_scene
+
+    return two_boxes_scene(views=3, shape=SHAPE)
+
+
+def test_segment_validates_the_scene_like_run():
+    from graphseg.method.segment import segment
+    from graphseg.scene import Scene, SceneError
+
+    scene, masks, matches = _two_boxes()
+    dup = Scene([scene.views[0], scene.views[1].replace(name=scene.views[0].name), scene.views[2]])
+    with pytest.raises(SceneError, match="unique"):
+        segment(dup, masks, matches)
+    bad = Scene([scene.views[0].replace(cam_to_world=np.diag([1.0, 2, 1, 1])), *scene.views[1:]])
+    with pytest.raises(SceneError, match="rigid"):
+        segment(bad, masks, matches)
+
+
+@pytest.mark.parametrize(
+    "mask, expect",
+    [
+        (np.zeros((5, 5), np.int32), r"expected an int label image \[48, 64\] or a bool stack \[K, 48, 64\] \(got int32 \[5, 5\]\)"),
+        (np.zeros(SHAPE, np.float32), r"\(got float32 \[48, 64\]\)"),
+        ([np.zeros((3, 3), bool)], r"masks\[0\]: expected a bool mask \[48, 64\] \(got bool \[3, 3\]\)"),
+        ("masks.png", r"\(got str\)"),
+    ],
+)
+def test_segment_rejects_wrong_mask_shapes_and_dtypes(mask, expect):
+    from graphseg.method.segment import segment
+    from graphseg.scene import SceneError
+
+    scene, masks, matches = _two_boxes()
+    with pytest.raises(SceneError, match=expect):
+        segment(scene, [mask, *masks[1:]], matches)
+
+
+def test_segment_treats_non_finite_points_as_invalid():
+    from graphseg.method.segment import segment
+    from graphseg.scene import Scene
+
+    scene, masks, matches = _two_boxes()
+    rng = np.random.default_rng(0)
+    with_inf, with_nan = [], []
+    for v in scene.views:
+        hole = rng.random(v.shape) < 0.05
+        sign = np.where(rng.random((int(hole.sum()), 1)) < 0.5, np.inf, -np.inf)
+        p = v.points.copy()
+        p[hole] = sign
+        with_inf.append(v.replace(points=p))
+        q = v.points.copy()
+        q[hole] = np.nan
+        with_nan.append(v.replace(points=q))
+    before = [v.points.copy() for v in with_inf]
+    a = segment(Scene(with_inf, scene.objects), masks, matches)
+    b = segment(Scene(with_nan, scene.objects), masks, matches)
+    assert a.num_objects == b.num_objects
+    assert all(np.array_equal(x, y) for x, y in zip(a.labels, b.labels))  # inf is exactly an invalid pixel
+    assert np.isfinite(a.object_points.points).all()
+    assert all(np.array_equal(x, v.points, equal_nan=True) for x, v in zip(before, with_inf))  # inputs untouched
+
+
+def test_segment_degenerate_scenes_give_valid_results():
+    from graphseg.method.segment import segment
+
+    scene, masks, matches = _two_boxes()
+    r = segment(scene, [np.zeros(SHAPE, np.int32)] * 3, matches)
+    assert r.num_objects == 0 and r.info["warnings"] and all((lab == 0).all() for lab in r.labels)
+    one = segment(scene.select([0]), masks[:1], {})
+    assert one.info["warnings"] == ["only one view: no cross-view evidence, every mask is its own object"]
+
+
+def test_coarsen_rejects_bad_cluster_vectors():
+    from graphseg.graphs import CorrespondenceGraph, GraphValidationError, coarsen
+
+    g = CorrespondenceGraph(3, edge_index=[[0], [1]])
+    with pytest.raises(GraphValidationError, match="in \\[0, 3\\)"):
+        coarsen(g, np.array([0, 1, 5]))
+    with pytest.raises(GraphValidationError, match="canonical"):
+        coarsen(g, np.array([0, 2, 2]))  # id 1 unused: would make an empty node
+    with pytest.raises(GraphValidationError, match="canonical"):
+        coarsen(g, np.array([1, 0, 0]))
+    assert coarsen(CorrespondenceGraph(0), np.zeros(0, np.int64)).num_nodes == 0
+
+
+def test_pixel_budget_is_overridable(tmp_path, monkeypatch):
+    from graphseg.io.images import read_rgb
+    from graphseg.scene import SceneError
+
+    write_png(tmp_path / "a.png", np.zeros((40, 50, 3), np.uint8))
+    monkeypatch.setenv("GRAPHSEG_MAX_PIXELS", "1000")
+    with pytest.raises(SceneError, match="50x40 .* above the budget"):
+        read_rgb(tmp_path / "a.png")
+    monkeypatch.setenv("GRAPHSEG_MAX_PIXELS", "2000")
+    assert read_rgb(tmp_path / "a.png").shape == (40, 50, 3)
+
+
+def test_memory_estimate_stops_a_run_before_it_starts(monkeypatch, tmp_path):
+    import graphseg.job as job
+    from graphseg.scene import SceneError
+
+    monkeypatch.setattr(job, "available_memory", lambda: 10_000)
+    with pytest.raises(SceneError, match="memory: 3 views of 64x48 need about"):
+        run_job(box_scene(TWO_BOXES, views=3, shape=SHAPE), tmp_path / "o")
+    assert not (tmp_path / "o").exists()
