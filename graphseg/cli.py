@@ -533,9 +533,12 @@ def main(argv: list[str] | None = None) -> int:
         _error("out of memory; select fewer views (--num-views / --step) or smaller images")
         return 1
     except OSError as err:
-        name = err.filename or getattr(args, "out", None) or "path"
+        name = str(err.filename or getattr(args, "out", None) or "path")
         what = "not found" if isinstance(err, FileNotFoundError) else (err.strerror or str(err))
-        _error(f"{name}: path: {what}")
+        if ".graphseg-tmp-" in name:  # failed while writing: name the target, not the temporary
+            _error(f"{getattr(args, 'out', None) or name}: output: cannot write ({what}); nothing written")
+        else:
+            _error(f"{name}: path: {what}")
         return 2
     except Exception as err:
         if _flag(args, "debug"):

@@ -223,6 +223,25 @@ def clean_stale(out: str | os.PathLike[str]) -> list[Path]:
     return removed
 
 
+def _make_parents(path: Path) -> list[Path]:
+    """Create the missing parents of ``path``; return those created, deepest first."""
+    created = []
+    probe = path.parent
+    while not probe.exists():
+        created.append(probe)
+        probe = probe.parent
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return created
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for f in folders:
+        try:
+            f.rmdir()
+        except OSError:
+            break
+
+
 def _umask() -> int:
     mask = os.umask(0o022)
     os.umask(mask)
@@ -236,12 +255,18 @@ def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
     The caller has checked ``out`` with :func:`check_target`. The temporary
     folder holds the marker from the start; an existing ``out`` is replaced
     only after the new folder is complete. On any exception (including
-    KeyboardInterrupt) the temporary folder is removed and ``out`` is unchanged.
+    KeyboardInterrupt) the temporary folder and any parent folders it created
+    are removed, and ``out`` is unchanged.
     """
     dest = Path(os.path.abspath(out))
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    created = _make_parents(dest)
     clean_stale(dest)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
+    ok = False
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
+    except BaseException:
+        _remove_empty(created)
+        raise
     try:
         os.chmod(tmp, 0o777 & ~_umask())
         _write_marker(tmp, kind)
@@ -254,26 +279,37 @@ def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, dest)
+        ok = True
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+        if not ok:
+            _remove_empty(created)
 
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary sibling path to write; it replaces ``path`` on success, else is removed."""
     dest = Path(os.path.abspath(path))
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent, suffix=dest.suffix)
+    created = _make_parents(dest)
+    ok = False
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent, suffix=dest.suffix)
+    except BaseException:
+        _remove_empty(created)
+        raise
     os.close(fd)
     tmp = Path(name)
     try:
         os.chmod(tmp, 0o666 & ~_umask())
         yield tmp
         os.replace(tmp, dest)
+        ok = True
     finally:
         if tmp.exists():
             tmp.unlink()
+        if not ok:
+            _remove_empty(created)
 
 
 # ----------------------------------------------------------------------------- writing

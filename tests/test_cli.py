@@ -389,3 +389,17 @@ def test_run_never_modifies_its_inputs(small_scene, tmp_path_factory):
         shutil.rmtree(base / "new", ignore_errors=True)
 
     prop()
+
+
+def test_disk_full_while_writing_is_one_line_and_leaves_nothing(small_scene, tmp_path, capsys, monkeypatch):
+    import errno
+
+    import graphseg.output as output
+
+    def full(*a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / ".o.graphseg-tmp-1-x" / "report.html"))
+
+    monkeypatch.setattr(output, "render_report", full)
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--quiet"], capsys)
+    assert code == 2 and err.strip().splitlines() == [f"graphseg: error: {tmp_path / 'o'}: output: cannot write (No space left on device); nothing written"]
+    assert list(tmp_path.iterdir()) == []

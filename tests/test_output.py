@@ -141,3 +141,15 @@ def test_old_output_layout_still_lists_its_graphs(tmp_path):
     (tmp_path / "graph_2d.graphml").write_text("x")
     (tmp_path / "graph_3d.graphml").write_text("x")
     assert [p.name for p in stage_graph_files(tmp_path)] == ["graph_2d.graphml", "graph_3d.graphml"]
+
+
+def test_failed_write_removes_the_parents_it_created(run, tmp_path, monkeypatch):
+    scene, result = run
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(output, "write_graphml", boom)
+    with pytest.raises(OSError):
+        write_output(tmp_path / "a" / "b" / "out", result, scene)
+    assert list(tmp_path.iterdir()) == []
