@@ -24,10 +24,12 @@ Safety rules (:func:`check_target`, :func:`atomic_folder`, :func:`atomic_file`):
   input of the command (or contains the working folder) is refused; so is a
   symbolic link at the target path.
 * Folders are built in a temporary sibling ``.NAME.graphseg-tmp-PID-XXXX`` (with
-  the marker written first) and renamed into place; files go through
-  ``.NAME.graphseg-tmp-PID-XXXX`` and :func:`os.replace`. Stale temporary
-  siblings of dead processes that carry the marker are removed by the next
-  write to the same target.
+  the marker written first) and renamed into place; single files are written
+  inside such a marked sibling folder and moved with :func:`os.replace`. Stale
+  temporary siblings of dead processes that carry the marker are removed by
+  the next write to the same target.
+* Interrupted (SIGINT, or SIGTERM in the command line) or failed writes remove
+  their temporary sibling and any parent folders they created.
 * Created folders follow the umask.
 
 Examples
@@ -289,25 +291,31 @@ def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """Yield a temporary sibling path to write; it replaces ``path`` on success, else is removed."""
+    """Yield a temporary path to write; it replaces ``path`` on success, else is removed.
+
+    The temporary file lives in a marked sibling folder
+    ``.NAME.graphseg-tmp-PID-XXXX/`` so that :func:`clean_stale` can remove it
+    after a killed run, like the folders of :func:`atomic_folder`.
+    """
     dest = Path(os.path.abspath(path))
     created = _make_parents(dest)
+    clean_stale(dest)
     ok = False
     try:
-        fd, name = tempfile.mkstemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent, suffix=dest.suffix)
+        box = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
     except BaseException:
         _remove_empty(created)
         raise
-    os.close(fd)
-    tmp = Path(name)
     try:
-        os.chmod(tmp, 0o666 & ~_umask())
+        _write_marker(box, "export")
+        tmp = box / dest.name
         yield tmp
+        if tmp.exists():
+            os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, dest)
         ok = True
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        shutil.rmtree(box, ignore_errors=True)
         if not ok:
             _remove_empty(created)
 

@@ -153,3 +153,22 @@ def test_failed_write_removes_the_parents_it_created(run, tmp_path, monkeypatch)
     with pytest.raises(OSError):
         write_output(tmp_path / "a" / "b" / "out", result, scene)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_file_leaves_nothing_on_failure_and_cleans_killed_runs(tmp_path):
+    from graphseg.output import MARKER, atomic_file
+
+    with atomic_file(tmp_path / "g.graphml") as tmp:
+        tmp.write_text("ok")
+    assert (tmp_path / "g.graphml").read_text() == "ok"
+    with pytest.raises(RuntimeError), atomic_file(tmp_path / "g.graphml") as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("killed")
+    assert (tmp_path / "g.graphml").read_text() == "ok" and sorted(p.name for p in tmp_path.iterdir()) == ["g.graphml"]
+    stale = tmp_path / ".g.graphml.graphseg-tmp-999999999-k"
+    stale.mkdir()
+    (stale / MARKER).write_text('{"kind": "export", "version": 1}')
+    (stale / "g.graphml").write_text("half")
+    with atomic_file(tmp_path / "g.graphml") as tmp:
+        tmp.write_text("new")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["g.graphml"]
