@@ -455,20 +455,29 @@ COMMANDS = {"run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_de
 
 @contextlib.contextmanager
 def _signals() -> Iterator[None]:
-    """SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) so that temporary files are removed."""
+    """SIGTERM raises :class:`Terminated` and SIGINT KeyboardInterrupt, once: later signals are
+    ignored so that the cleanup of temporary files in ``finally`` blocks is not cut short."""
 
     def on_term(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
         raise Terminated()
 
+    def on_int(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise KeyboardInterrupt()
+
     try:
-        old = signal.signal(signal.SIGTERM, on_term)
+        old = signal.signal(signal.SIGTERM, on_term), signal.signal(signal.SIGINT, on_int)
     except ValueError:  # not the main thread
         yield
         return
     try:
         yield
     finally:
-        signal.signal(signal.SIGTERM, old)
+        signal.signal(signal.SIGTERM, old[0])
+        signal.signal(signal.SIGINT, old[1])
 
 
 @contextlib.contextmanager
