@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .config import Config
 from .result import Result
 from .scene import Scene, SceneError
@@ -113,7 +115,7 @@ def resolve_backends(
     from .pipeline import _resolve
 
     out: dict[str, Any] = {}
-    plan = [
+    plan: list[tuple[str, Any, Any, dict[str, Any] | None]] = [
         ("segmenter", segmenters, segmenter or config.backends.segmenter, {"seed": config.seed}),
         ("matcher", matchers, matcher or config.backends.matcher, {"num_matches": config.backends.num_matches, "seed": config.seed}),
     ]
@@ -153,7 +155,7 @@ def available_memory() -> int | None:
     except (OSError, ValueError, IndexError):
         pass
     try:
-        import psutil  # type: ignore[import-untyped]
+        import psutil
     except ImportError:
         return None
     return int(psutil.virtual_memory().available)
@@ -184,7 +186,7 @@ def evaluate_scene(result: Result, scene: Scene) -> dict[str, Any] | None:
 
     if not scene.has_instances or not scene.has_points:
         return None
-    return evaluate(result.labels, [v.instances for v in scene.views], [v.points for v in scene.views], names=scene.objects)
+    return evaluate(result.labels, [np.asarray(v.instances) for v in scene.views], [np.asarray(v.points) for v in scene.views], names=scene.objects)
 
 
 def run_job(
@@ -258,11 +260,11 @@ def run_job(
     need_lifter = is_path or lifter is not None or not scene_or_path.has_points  # type: ignore[union-attr]
     backends = resolve_backends(cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, need_lifter=need_lifter)
     timings["resolve"] = time.perf_counter() - t0
-    all_inputs = [*inputs]
-    if is_path:
+    all_inputs: list[str | os.PathLike[str]] = [*inputs]
+    if not isinstance(scene_or_path, Scene):
         all_inputs.insert(0, scene_or_path)
     if out is not None:
-        check_target(out, kind, inputs=all_inputs, overwrite=overwrite)  # type: ignore[arg-type]
+        check_target(out, kind, inputs=all_inputs, overwrite=overwrite)
     t = time.perf_counter()
     info = dict(run_info or {})
     if is_path:
@@ -301,7 +303,7 @@ def run_job(
     path_out = None
     t = time.perf_counter()
     if out is not None:
-        path_out = write_output(out, result, scene, metrics=metrics, run_info=info, inputs=all_inputs, overwrite=overwrite, kind=kind)  # type: ignore[arg-type]
+        path_out = write_output(out, result, scene, metrics=metrics, run_info=info, inputs=all_inputs, overwrite=overwrite, kind=kind)
     timings["write"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     return JobResult(result, scene, metrics, path_out, timings, warnings)

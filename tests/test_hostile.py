@@ -169,8 +169,9 @@ def out_inside_the_scene(ws):
 
 @case
 def out_contains_the_scene(ws):
-    ws.scene
-    return ["run", ws.scene, "-o", ws.root, "--quiet", "--overwrite"], "output"
+    proj = ws.root / "proj"
+    shutil.copytree(ws.base / "scene", proj / "scene")
+    return ["run", proj / "scene", "-o", proj, "--quiet", "--overwrite"], "input of this command"
 
 
 @case

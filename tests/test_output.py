@@ -108,7 +108,7 @@ def test_stale_temporaries_of_dead_runs_are_removed(run, tmp_path):
 
 def test_view_names_that_collide_or_are_not_utf8_safe(tmp_path):
     from graphseg.scene import Scene
-    from graphseg.testing.scenes import box_scene, TWO_BOXES, exact_matches
+    from graphseg.testing.scenes import TWO_BOXES, box_scene, exact_matches
 
     s = box_scene(TWO_BOXES, views=3, shape=(48, 64))
     names = ["a/b", "a_b", "caf\udce9"]  # a lone surrogate: what os.fsdecode gives for a non-UTF-8 byte

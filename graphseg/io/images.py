@@ -54,7 +54,7 @@ def quiet_opencv() -> None:
     try:
         cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
     except AttributeError:  # pragma: no cover - very old OpenCV
-        cv2.setLogLevel(0)
+        cv2.setLogLevel(0)  # type: ignore[attr-defined]
 
 
 def image_size(head: bytes) -> tuple[int, int] | None:

@@ -50,7 +50,16 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View, is_rigid
-from .images import check_size, confine, read_label, read_rgb, read_uint16, unique_file_names, write_png, write_rgb
+from .images import (
+    check_size,
+    confine,
+    read_label,
+    read_rgb,
+    read_uint16,
+    unique_file_names,
+    write_png,
+    write_rgb,
+)
 from .select import select_indices
 
 __all__ = ["read_scene_folder", "write_scene_folder", "fill_scene_folder", "FORMAT", "VERSION", "IMAGE_SUFFIXES"]

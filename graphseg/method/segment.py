@@ -163,7 +163,7 @@ def segment(
     rng = np.random.default_rng(cfg.seed)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    points = [_finite_points(v.points) for v in scene.views]  # all present (checked above); inf -> invalid
+    points = [_finite_points(np.asarray(v.points)) for v in scene.views]  # all present (checked above); inf -> invalid
     centers = [v.camera_center for v in scene.views] if all(v.cam_to_world is not None for v in scene.views) else None
     bg, bg_info = background_masks(points, centers, cfg.background, rng=rng)
     timings["background"] = time.perf_counter() - t0
