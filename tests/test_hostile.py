@@ -478,6 +478,12 @@ def unknown_segmenter(ws):
 
 
 @case
+def unknown_segmenter_is_reported_before_any_image_is_read(ws):
+    (ws.scene / "rgb" / "000.png").write_bytes(b"corrupt")
+    return run_args(ws, "--segmenter", "sam9"), "unknown segmenter 'sam9'"
+
+
+@case
 def unknown_matcher(ws):
     return run_args(ws, "--matcher", "nope"), "unknown matcher 'nope'"
 
