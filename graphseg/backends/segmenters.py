@@ -340,7 +340,6 @@ def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.n
 
 def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[np.ndarray]:
     """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image)."""
-    import cv2
 
     folder = Path(folder)
     npz, png = folder / f"{name}.npz", folder / f"{name}.png"
@@ -363,10 +362,9 @@ def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | 
             raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
         return list(arr.astype(bool))
     if png.exists():
-        lab = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
-        if lab is None or lab.ndim != 2:
-            raise SceneError("expected a single-channel label PNG", where=str(png), field="masks")
-        return lab.astype(np.int32)
+        from ..io.images import read_label
+
+        return read_label(png, field="masks")  # pixel budget, clean errors, no OpenCV log lines
     raise SceneError(f"no masks for view {name!r} ({npz.name} or {png.name})", where=str(folder), field="masks")
 
 

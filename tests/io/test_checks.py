@@ -61,3 +61,16 @@ def test_unique_file_names_never_collide():
     out = unique_file_names(names)
     assert len({n.lower() for n in out}) == len(out)
     assert all(n and not n.startswith(".") and "/" not in n for n in out)
+
+
+def test_read_ply_rejects_malformed_files(tmp_path):
+    from graphseg.io import read_ply, write_ply
+
+    write_ply(tmp_path / "a.ply", np.zeros((4, 3), np.float32))
+    good = (tmp_path / "a.ply").read_bytes()
+    (tmp_path / "b.ply").write_bytes(good.replace(b"element vertex 4", b"element vertex 4000000000"))
+    (tmp_path / "c.ply").write_bytes(b"garbage")
+    for name, msg in [("b.ply", "declares 4000000000 vertices"), ("c.ply", "not a PLY")]:
+        with pytest.raises(ValueError, match=msg):
+            read_ply(tmp_path / name)
+    assert read_ply(tmp_path / "a.ply")[0].shape == (4, 3)
