@@ -28,9 +28,11 @@ matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
 matchers.register("flow", "graphseg.backends.matchers:FlowMatcher")
 matchers.register("sift", "graphseg.backends.matchers:SiftMatcher")
+matchers.register("precomputed-matches", "graphseg.backends.precomputed:PrecomputedMatcher")
 
 lifters = Registry("lifter", group="graphseg.lifters")
 lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
+lifters.register("precomputed-points", "graphseg.backends.precomputed:PrecomputedLifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")

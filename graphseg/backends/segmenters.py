@@ -343,6 +343,10 @@ def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | 
     import cv2
 
     folder = Path(folder)
+    if not any((folder / f"{name}{s}").is_file() for s in (".npz", ".png")):
+        from ..io.precomputed import encode_name  # names saved by graphseg.io.precomputed.save_inputs
+
+        name = encode_name(name)
     npz, png = folder / f"{name}.npz", folder / f"{name}.png"
     if npz.exists():
         with np.load(npz) as z:
