@@ -59,6 +59,8 @@ __all__ = [
     "metric_scale",
     "NOMINAL_WORKING_DISTANCE",
     "pairs_from_mapping",
+    "finish_lift",
+    "lift_from_alignment",
 ]
 
 #: Median camera-to-point distance (metres) a reconstruction of unknown scale is given: a
@@ -489,3 +491,58 @@ def metric_scale(scene: Scene, known_cam_to_world: Sequence[np.ndarray] | np.nda
 def pairs_from_mapping(maps: Mapping[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> list[PairPointMaps]:
     """``{(i, j): (pts_i, pts_j, conf_i, conf_j)}`` as a list of :class:`PairPointMaps`."""
     return [PairPointMaps(i, j, *arrs) for (i, j), arrs in maps.items()]
+
+
+def finish_lift(
+    scene: Scene,
+    points: Sequence[np.ndarray],
+    confidence: Sequence[np.ndarray],
+    cam_to_world: np.ndarray,
+    K: np.ndarray,
+    *,
+    scale: str = "auto",
+    lifter: str = "",
+) -> Scene:
+    """The lifted scene from predicted world point maps and cameras, brought to metres.
+
+    Parameters
+    ----------
+    points, confidence : per view ``[H, W, 3]`` / ``[H, W]`` at the image size
+    cam_to_world : ``[N, 4, 4]`` predicted; K : ``[N, 3, 3]`` predicted (a view's own ``K`` wins)
+    scale : {"auto", "nominal", "none"}
+        ``auto``: :func:`metric_scale` with the scene's poses when every view has
+        one (they are then the world frame), else the nominal working distance;
+        ``nominal``: always the nominal distance; ``none``: left as predicted.
+    """
+    if scale not in ("auto", "nominal", "none"):
+        raise ValueError(f"unknown scale mode {scale!r}; choose 'auto', 'nominal' or 'none'")
+    known = [v.cam_to_world for v in scene.views]
+    views = [
+        v.replace(
+            points=np.asarray(p, np.float32),
+            confidence=np.asarray(c, np.float32),
+            cam_to_world=np.asarray(T, np.float64),
+            K=np.asarray(v.K if v.K is not None else k, np.float64),
+        )
+        for v, p, c, T, k in zip(scene.views, points, confidence, cam_to_world, K)
+    ]
+    out = Scene(views, dict(scene.objects), scene.name, dict(scene.meta))
+    if scale == "none":
+        out.meta["scale"] = {"metric": False, "factor": 1.0, "method": "none"}
+    else:
+        use_known = scale == "auto" and all(T is not None for T in known) and len(known) >= 2
+        out = metric_scale(out, np.stack([np.asarray(T, np.float64) for T in known]) if use_known else None)  # type: ignore[misc]
+    if lifter:
+        out.meta["lifter"] = lifter
+    return out
+
+
+def lift_from_alignment(scene: Scene, alignment: Alignment, model_hw: tuple[int, int], *, scale: str = "auto", lifter: str = "") -> Scene:
+    """:func:`finish_lift` after resizing model-resolution maps to the images (nearest, centre-aligned; K scaled)."""
+    from ..io.precomputed import resize_nearest, scale_intrinsics
+
+    shape = scene.views[0].shape
+    pts = [np.ascontiguousarray(resize_nearest(p, shape)) for p in alignment.points]
+    conf = [np.ascontiguousarray(resize_nearest(c, shape)) for c in alignment.confidence]
+    K = np.stack([scale_intrinsics(k, model_hw, shape) for k in alignment.K])
+    return finish_lift(scene, pts, conf, alignment.cam_to_world, K, scale=scale, lifter=lifter)
