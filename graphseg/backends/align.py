@@ -299,7 +299,7 @@ def global_align(
         fu, fv = flat[e] if p.i == u else flat[e][::-1]
         wu = world[u]
         assert wu is not None and wconf[u] is not None
-        c = fu[1] * wconf[u]  # type: ignore[operator]
+        c = fu[1] * wconf[u]
         idx = _sample(c * np.isfinite(wu).all(1), sample, gen)
         sim = _weighted_umeyama(fu[0][idx], wu[idx], c[idx])
         world[v] = _apply(sim, fv[0])
@@ -316,8 +316,8 @@ def global_align(
         for e, p in enumerate(pairs):
             (pi, ci), (pj, cj) = flat[e]
             src = np.concatenate([pi, pj])
-            dst = np.concatenate([world[p.i], world[p.j]])  # type: ignore[list-item]
-            c = np.concatenate([ci * wconf[p.i], cj * wconf[p.j]])  # type: ignore[operator]
+            dst = np.concatenate([world[p.i], world[p.j]])
+            c = np.concatenate([ci * wconf[p.i], cj * wconf[p.j]])
             ok = c * np.isfinite(dst).all(1)
             idx = _sample(ok, 2 * sample, gen)
             sim = _weighted_umeyama(src[idx], dst[idx], ok[idx])
@@ -531,7 +531,7 @@ def finish_lift(
         out.meta["scale"] = {"metric": False, "factor": 1.0, "method": "none"}
     else:
         use_known = scale == "auto" and all(T is not None for T in known) and len(known) >= 2
-        out = metric_scale(out, np.stack([np.asarray(T, np.float64) for T in known]) if use_known else None)  # type: ignore[misc]
+        out = metric_scale(out, np.stack([np.asarray(T, np.float64) for T in known]) if use_known else None)
     if lifter:
         out.meta["lifter"] = lifter
     return out

@@ -77,7 +77,7 @@ class PrecomputedMatcher:
         num_matches: int | None = None
 
     def __init__(self, folder: str | os.PathLike[str] | None = None, missing: str = "empty", num_matches: int | None = None) -> None:
-        opts = self.Options(folder=None if folder is None else str(folder), missing=missing, num_matches=num_matches)  # type: ignore[arg-type]
+        opts = self.Options(folder=None if folder is None else str(folder), missing=missing, num_matches=num_matches)
         self.folder = _folder(opts.folder, "matcher", "matches")
         self.missing = opts.missing
         self.num_matches = opts.num_matches

@@ -56,7 +56,7 @@ from urllib.parse import unquote
 
 import numpy as np
 
-from ..scene import Matches, Scene, SceneError, View, is_rigid
+from ..scene import Matches, Scene, SceneError, is_rigid
 
 __all__ = [
     "encode_name",
