@@ -10,11 +10,13 @@ aligner does, with graphseg's own code (numpy/scipy):
    negated weight); the strongest pair fixes the world frame, and every other
    view is placed along the tree by a confidence-weighted similarity
    (:func:`umeyama`) between the points the tree edge shares with the placed view.
-2. Refinement (``iterations`` rounds): every pair gets the similarity that best
-   maps its two point maps onto the current world point maps, and every view's
-   world point map becomes the confidence-weighted mean of its pairs' mapped
-   points (block-coordinate descent on DUSt3R's objective
-   ``sum_e sum_v c * ||X_v - s_e P_e X^e_v||``), with the gauge fixed on the root view.
+2. Refinement (``iterations`` rounds, on a fixed random subsample of ``sample``
+   pixels): every pair gets the similarity that best maps its two point maps onto
+   the current world points, and every view's world points become the
+   confidence-weighted mean of its pairs' mapped points (block-coordinate descent
+   on DUSt3R's objective ``sum_e sum_v c * ||X_v - s_e P_e X^e_v||^2``), with the
+   gauge fixed on the root view. The dense world point maps are then the
+   confidence-weighted means of all pairs' maps under the final similarities.
 3. Cameras: each view's pose is the similarity that maps its own camera-frame
    point map (from a pair where it comes first) onto its world point map; its
    focal length is the least-squares fit of that map's projections to the pixel
@@ -170,13 +172,18 @@ class Alignment:
 def _sample(valid_w: np.ndarray, n: int, gen: np.random.Generator) -> np.ndarray:
     idx = np.flatnonzero(valid_w > 0)
     if len(idx) > n:
-        idx = np.sort(gen.choice(idx, size=n, replace=False))
+        idx = idx[gen.integers(0, len(idx), n)]  # with replacement: O(n), harmless for a fit
     return idx
 
 
 def _apply(sim: tuple[float, np.ndarray, np.ndarray], pts: np.ndarray) -> np.ndarray:
     s, R, t = sim
-    return (s * pts @ R.T + t).astype(np.float32)
+    return np.asarray(pts, np.float32) @ (s * R.T).astype(np.float32) + t.astype(np.float32)
+
+
+def _compose(a: tuple[float, np.ndarray, np.ndarray], b: tuple[float, np.ndarray, np.ndarray]) -> tuple[float, np.ndarray, np.ndarray]:
+    """``a`` after ``b``."""
+    return a[0] * b[0], a[1] @ b[1], a[0] * a[1] @ b[2] + a[2]
 
 
 def _flat(p: np.ndarray, c: np.ndarray, min_conf: float) -> tuple[np.ndarray, np.ndarray]:
@@ -247,7 +254,7 @@ def global_align(
 
     Notes
     -----
-    O(iterations * E * H W) for E pairs of H x W point maps.
+    O(E H W + iterations * E * sample) for E pairs of H x W point maps.
     """
     gen = np.random.default_rng(rng)
     if not pairs:
@@ -306,39 +313,63 @@ def global_align(
         wconf[v] = fv[1]
         tree_edges.append((u, int(v)))
 
-    # 2. refinement: per-pair similarities <-> per-view weighted means
-    root_ref = np.asarray(world[root]).copy()
+    # 2. refinement on a fixed pixel subsample: per-pair similarities <-> per-view weighted means
+    hw = shape[0] * shape[1]
+    sub = np.sort(gen.choice(hw, size=min(hw, sample), replace=False)) if hw > sample else np.arange(hw)
+    wsub = [np.asarray(w)[sub] for w in world]
+    csub = [np.asarray(c)[sub] for c in wconf]
+    root_ref = wsub[root].copy()
     residuals = []
+    sims: list[tuple[float, np.ndarray, np.ndarray]] = []
     for _ in range(iterations):
-        acc = [np.zeros((shape[0] * shape[1], 3)) for _ in range(num_views)]
-        wsum = [np.zeros(shape[0] * shape[1]) for _ in range(num_views)]
+        acc = [np.zeros((len(sub), 3)) for _ in range(num_views)]
+        wsum = [np.zeros(len(sub)) for _ in range(num_views)]
         err = 0.0
+        sims = []
         for e, p in enumerate(pairs):
             (pi, ci), (pj, cj) = flat[e]
-            src = np.concatenate([pi, pj])
-            dst = np.concatenate([world[p.i], world[p.j]])
-            c = np.concatenate([ci * wconf[p.i], cj * wconf[p.j]])
-            ok = c * np.isfinite(dst).all(1)
-            idx = _sample(ok, 2 * sample, gen)
+            src = np.concatenate([pi[sub], pj[sub]])
+            dst = np.concatenate([wsub[p.i], wsub[p.j]])
+            c = np.concatenate([ci[sub] * csub[p.i], cj[sub] * csub[p.j]])
+            ok = c * np.isfinite(dst).all(1) * np.isfinite(src).all(1)
+            idx = np.flatnonzero(ok > 0)
+            if len(idx) < 3:
+                raise ValueError(f"pair {(p.i, p.j)} shares fewer than 3 confident points with the alignment")
             sim = _weighted_umeyama(src[idx], dst[idx], ok[idx])
+            sims.append(sim)
             moved = _apply(sim, src)
             err += float(np.sqrt((ok[idx] * ((moved[idx] - dst[idx]) ** 2).sum(1)).sum() / ok[idx].sum()))
-            for v, sl, cv in ((p.i, slice(0, len(pi)), ci), (p.j, slice(len(pi), None), cj)):
-                m = moved[sl]
+            n = len(sub)
+            for v, m, cv in ((p.i, moved[:n], ci[sub]), (p.j, moved[n:], cj[sub])):
                 good = (cv > 0) & np.isfinite(m).all(1)
                 acc[v][good] += cv[good, None] * m[good]
                 wsum[v][good] += cv[good]
         residuals.append(err / len(pairs))
         new = []
         for v in range(num_views):
-            x = np.full((shape[0] * shape[1], 3), np.nan, np.float32)
-            ok = wsum[v] > 0
-            x[ok] = (acc[v][ok] / wsum[v][ok, None]).astype(np.float32)
+            x = np.full((len(sub), 3), np.nan, np.float32)
+            okv = wsum[v] > 0
+            x[okv] = (acc[v][okv] / wsum[v][okv, None]).astype(np.float32)
             new.append(x)
-        ok = np.isfinite(new[root]).all(1) & np.isfinite(root_ref).all(1)
-        idx = _sample(ok.astype(float), 4 * sample, gen)
-        gauge = _weighted_umeyama(new[root][idx], root_ref[idx], None)
-        world = [_apply(gauge, x) for x in new]
+        okr = np.isfinite(new[root]).all(1) & np.isfinite(root_ref).all(1)
+        gauge = _weighted_umeyama(new[root][okr], root_ref[okr], None)
+        wsub = [_apply(gauge, x) for x in new]
+        sims = [_compose(gauge, sm) for sm in sims]
+    if sims:  # dense world maps: each view's confidence-weighted mean over its pairs
+        acc = [np.zeros((hw, 3), np.float32) for _ in range(num_views)]
+        wsum = [np.zeros(hw, np.float32) for _ in range(num_views)]
+        for e, p in enumerate(pairs):
+            for v, (pts_v, cv) in ((p.i, flat[e][0]), (p.j, flat[e][1])):
+                m = _apply(sims[e], pts_v)
+                good = (cv > 0) & np.isfinite(m).all(1)
+                acc[v][good] += cv[good, None] * m[good]
+                wsum[v][good] += cv[good]
+        world = []
+        for v in range(num_views):
+            x = np.full((hw, 3), np.nan, np.float32)
+            okv = wsum[v] > 0
+            x[okv] = acc[v][okv] / wsum[v][okv, None]
+            world.append(x)
 
     # 3. cameras
     conf_out = [np.zeros(shape[0] * shape[1], np.float32) for _ in range(num_views)]
