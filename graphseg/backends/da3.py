@@ -51,7 +51,7 @@ def _import(module: str) -> Any:
     try:
         return importlib.import_module(module)
     except ImportError as err:
-        raise MissingDependencyError(f"the da3 lifter needs {module!r} ({err}): {INSTALL}") from err
+        raise MissingDependencyError(f"the da3 lifter needs {module!r} ({err}): {INSTALL}; checkpoint: --backend-option da3.checkpoint=PATH") from err
 
 
 def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:

@@ -38,7 +38,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..registry import require
+from ..registry import MissingDependencyError, require
 from ..scene import Scene, SceneError
 from .align import PairPointMaps, global_align, lift_from_alignment
 
@@ -117,7 +117,10 @@ class DUSt3RLifter:
         if unknown:
             raise SceneError(f"unknown roles {unknown}; choose from {', '.join(ROLES)}", where="dust3r", field="names")
         self.names = {**ROLES, **opts.names}
-        ort = require("onnxruntime", "dust3r")
+        try:
+            ort = require("onnxruntime", "dust3r")
+        except MissingDependencyError as err:
+            raise MissingDependencyError(f"{err} (the dust3r lifter runs --backend-option dust3r.encoder=PATH with onnxruntime)") from err
         so = ort.SessionOptions()
         if opts.threads:
             so.intra_op_num_threads = opts.threads

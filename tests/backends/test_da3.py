@@ -48,3 +48,13 @@ def test_da3_errors_name_the_option(checkpoint, tmp_path):
         DA3Lifter(checkpoint=str(checkpoint), model="da3-base")
     with pytest.raises(SceneError, match="unknown DA3 model 'da3-tiny'"):
         DA3Lifter(random_weights=True, model="da3-tiny")
+
+
+def test_missing_package_names_the_extra_and_the_option(monkeypatch):
+    import sys
+
+    from graphseg.registry import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "depth_anything_3.cfg", None)
+    with pytest.raises(MissingDependencyError, match=r'graphseg\[da3\].*--no-deps depth-anything-3==0.1.1.*da3.checkpoint=PATH'):
+        DA3Lifter(random_weights=True)

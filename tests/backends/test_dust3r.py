@@ -131,3 +131,13 @@ def test_cli_runs_an_rgb_only_scene_end_to_end(onnx_pair, tmp_path, capsys):
         assert (tmp_path / "out" / name).exists()
     assert main([str(a) for a in ["run", img, "-o", tmp_path / "out2", "--lifter", "dust3r", "--quiet"]]) == 2
     assert "dust3r.encoder=PATH" in capsys.readouterr().err
+
+
+def test_missing_onnxruntime_names_the_extra_and_the_option(onnx_pair, monkeypatch):
+    import sys
+
+    from graphseg.registry import MissingDependencyError
+
+    monkeypatch.setitem(sys.modules, "onnxruntime", None)
+    with pytest.raises(MissingDependencyError, match=r'graphseg\[dust3r\].*dust3r.encoder=PATH'):
+        DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"))
