@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -58,8 +58,10 @@ class PrecomputedLifter:
         model_config = ConfigDict(extra="forbid")
         folder: str | None = None
 
-    def __init__(self, folder: str | os.PathLike[str] | None = None) -> None:
-        self.folder = _folder(folder, "lifter", "points")
+    def __init__(self, **options: Any) -> None:
+        if isinstance(options.get("folder"), os.PathLike):
+            options["folder"] = os.fspath(options["folder"])
+        self.folder = _folder(self.Options(**options).folder, "lifter", "points")
 
     def __call__(self, scene: Scene) -> Scene:
         return apply_point_maps(scene, self.folder)
