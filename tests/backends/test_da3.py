@@ -26,10 +26,14 @@ def checkpoint(tmp_path_factory):
     return path
 
 
-def test_da3_lifts_an_rgb_only_scene(checkpoint):
+@pytest.fixture(scope="module")
+def lifter(checkpoint):
+    return DA3Lifter(checkpoint=str(checkpoint), size=70)
+
+
+def test_da3_lifts_an_rgb_only_scene(lifter):
     s = box_scene(TWO_BOXES, views=3, shape=(48, 64))
     scene = Scene([View(v.name, v.rgb) for v in s.views])
-    lifter = DA3Lifter(checkpoint=str(checkpoint), size=70)
     out = lifter(scene)
     assert out.meta["lifter"] == "da3" and out.meta["scale"]["method"] == "nominal-distance"
     for v in out.views:
@@ -59,3 +63,21 @@ def test_missing_package_names_the_extra_and_the_option(monkeypatch):
     monkeypatch.setitem(sys.modules, "depth_anything_3.cfg", None)
     with pytest.raises(MissingDependencyError, match=r'graphseg\[da3\].*--no-deps depth-anything-3==0.1.1.*da3.checkpoint=PATH'):
         DA3Lifter(random_weights=True)
+
+
+def test_cli_runs_an_rgb_only_scene_with_da3(lifter, tmp_path, capsys, monkeypatch):
+    """End to end through the CLI; the lifter built from the checkpoint above is reused (config options: test_dust3r)."""
+    from graphseg.backends.registry import lifters
+    from graphseg.cli import main
+    from graphseg.io.images import write_rgb
+
+    monkeypatch.setitem(lifters._targets, "da3", lifter)
+    monkeypatch.setattr(lifters, "_loaded", {k: v for k, v in lifters._loaded.items() if k != "da3"})
+    img = tmp_path / "images"
+    img.mkdir()
+    for v in box_scene(TWO_BOXES, views=3, shape=(48, 64)).views:
+        write_rgb(img / f"{v.name}.png", v.rgb)
+    code = main([str(a) for a in ["run", img, "-o", tmp_path / "out", "--lifter", "da3", "--segmenter", "superpixel", "--quiet"]])
+    assert code == 0, capsys.readouterr().err
+    run = __import__("json").loads((tmp_path / "out" / "run.json").read_text())
+    assert run["pipeline"]["lifter"] == "da3" and (tmp_path / "out" / "result.npz").exists()
