@@ -64,6 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has no point maps)")
     r.add_argument("--backend-option", action="append", default=[], metavar="NAME.KEY=VALUE", help="option KEY of backend NAME (VALUE read as a YAML scalar); repeatable; stored in config backends.options")
     r.add_argument("--masks", help="folder of precomputed masks per view (NAME.png label images or NAME.npz bool stacks); implies --segmenter precomputed")
+    r.add_argument("--matches", help="folder of precomputed matches per view pair (VIEWI__VIEWJ.npz, docs/formats.md); implies --matcher precomputed-matches")
+    r.add_argument("--points", help="folder of precomputed world point maps per view (VIEW.npz, docs/formats.md); implies --lifter precomputed-points")
     r.add_argument("--parts", type=int, help="parts per object for the oracle-parts segmenter (evaluation only)")
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
     r.add_argument("--seed", type=int, help="random seed (>= 0)")
@@ -225,6 +227,13 @@ def _config(args: argparse.Namespace) -> Any:
             raise BadInput(f"{folder}: masks: --masks needs the precomputed segmenter (got --segmenter {args.segmenter})")
         args.segmenter = "precomputed"
         cfg = _with_backend_options(cfg, "precomputed", folder=str(folder.resolve()))
+    for flag, kind in (("matches", "matcher"), ("points", "lifter")):
+        if getattr(args, flag, None):
+            from .backends.precomputed import precomputed_choice
+
+            name, opts = precomputed_choice(flag, getattr(args, flag), getattr(args, kind))
+            setattr(args, kind, name)
+            cfg = _with_backend_options(cfg, name, **opts)
     if getattr(args, "parts", None) is not None:
         if args.parts < 1:
             raise BadInput(f"--parts: expected an integer >= 1 (got {args.parts})")

@@ -15,6 +15,7 @@ Examples
 from __future__ import annotations
 
 import time
+from os import PathLike
 from typing import Any
 
 from .backends.registry import features as feature_registry
@@ -25,7 +26,7 @@ from .method.segment import segment
 from .result import Result
 from .scene import Matches, Scene
 
-__all__ = ["run", "lift", "compute_masks", "compute_matches"]
+__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare"]
 
 
 def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None = None) -> Any:
@@ -105,6 +106,65 @@ def compute_matches(
     return {(i, j): m(scene[i], scene[j]) for i, j in _progress(pairs, "match", progress)}
 
 
+def _given_masks(scene: Scene, masks: Any) -> list[Any]:
+    if isinstance(masks, (str, PathLike)):
+        from .backends.segmenters import PrecomputedSegmenter
+
+        seg = PrecomputedSegmenter(folder=masks)
+        return [seg(v) for v in scene.views]
+    if len(masks) != scene.num_views:
+        raise ValueError(f"expected one mask set per view ({scene.num_views}) (got {len(masks)})")
+    return list(masks)
+
+
+def _given_matches(scene: Scene, matches: Any) -> dict[tuple[int, int], Matches]:
+    if isinstance(matches, (str, PathLike)):
+        from .io.precomputed import read_matches_folder
+
+        return read_matches_folder(matches, scene)
+    return dict(matches)
+
+
+def prepare(
+    scene: Scene,
+    config: Config | None = None,
+    *,
+    segmenter: Any = None,
+    matcher: Any = None,
+    lifter: Any = None,
+    masks: Any = None,
+    matches: Any = None,
+    points: Any = None,
+    progress: bool = False,
+) -> tuple[Scene, list[Any], dict[tuple[int, int], Matches], dict[str, float]]:
+    """The inputs of :func:`~graphseg.method.segment.segment`: ``(lifted scene, masks, matches, timings)``.
+
+    ``masks`` (a list per view or a masks folder), ``matches`` (a dict or a
+    matches folder) and ``points`` (a point-map folder, see
+    :mod:`graphseg.io.precomputed`) replace the segmenter, matcher and lifter.
+    :func:`graphseg.io.precomputed.save_inputs` saves the three so that a later
+    run from them reproduces this one exactly.
+    """
+    cfg = config or Config()
+    times: dict[str, float] = {}
+    t = time.perf_counter()
+    if points is not None:
+        from .backends.precomputed import PrecomputedLifter
+
+        scene = lift(scene, PrecomputedLifter(folder=points), cfg)
+        scene.meta["lifter"] = "precomputed"
+    else:
+        scene = lift(scene, lifter, cfg)
+    times["lift"] = time.perf_counter() - t
+    t = time.perf_counter()
+    masks = _given_masks(scene, masks) if masks is not None else compute_masks(scene, segmenter, cfg, progress=progress)
+    times["segment"] = time.perf_counter() - t
+    t = time.perf_counter()
+    matches = _given_matches(scene, matches) if matches is not None else compute_matches(scene, matcher, cfg, progress=progress)
+    times["match"] = time.perf_counter() - t
+    return scene, masks, matches, times
+
+
 def run(
     scene: Scene,
     config: Config | None = None,
@@ -114,6 +174,9 @@ def run(
     lifter: Any = None,
     features: Any = None,
     progress: bool = False,
+    masks: Any = None,
+    matches: Any = None,
+    points: Any = None,
 ) -> Result:
     """Run GraphSeg on ``scene`` with backends.
 
@@ -127,6 +190,8 @@ def run(
         Feature extractor for a ``dino`` stage (only run when a stage uses it).
     progress : bool
         Show progress bars.
+    masks, matches, points : optional
+        Precomputed inputs instead of the backends (see :func:`prepare`).
 
     Returns
     -------
@@ -137,14 +202,11 @@ def run(
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()
-    scene = lift(scene, lifter, cfg)
-    times["lift"] = time.perf_counter() - t0
-    t = time.perf_counter()
-    masks = compute_masks(scene, segmenter, cfg, progress=progress)
-    times["segment"] = time.perf_counter() - t
-    t = time.perf_counter()
-    matches = compute_matches(scene, matcher, cfg, progress=progress)
-    times["match"] = time.perf_counter() - t
+    masks_given, matches_given = masks is not None, matches is not None
+    scene, masks, matches, step_times = prepare(
+        scene, cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, masks=masks, matches=matches, points=points, progress=progress
+    )
+    times.update(step_times)
     feats = None
     if any(a in ("dino", "dino_similarity") for s in cfg.stages for a in s):
         t = time.perf_counter()
@@ -156,8 +218,8 @@ def run(
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
     result.info["pipeline"] = {
-        "segmenter": _name(segmenter, cfg.backends.segmenter),
-        "matcher": _name(matcher, cfg.backends.matcher),
+        "segmenter": "given" if masks_given else _name(segmenter, cfg.backends.segmenter),
+        "matcher": "given" if matches_given else _name(matcher, cfg.backends.matcher),
         "lifter": scene.meta["lifter"],
         "timings": times,
     }

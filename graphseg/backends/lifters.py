@@ -2,7 +2,8 @@
 
 ``rgbd``: metric depth + intrinsics + poses -> world point maps, confidence 1
 where depth is valid and 0 elsewhere. A scene without depth needs a learned
-lifter (a DUSt3R adapter), which this package does not ship weights for.
+lifter with the user's weights (``sfm``, ``dust3r``, ``da3``; see docs/models.md)
+or point maps computed elsewhere (``--points DIR``, docs/formats.md).
 
 Examples
 --------
@@ -22,8 +23,9 @@ from ..scene import Scene, SceneError, backproject
 __all__ = ["RGBDLifter", "NO_DEPTH_MESSAGE"]
 
 NO_DEPTH_MESSAGE = (
-    "this scene has no depth; install/select a 3D lifter (DUSt3R adapter) with --lifter NAME, "
-    "or provide depth images with intrinsics and poses"
+    "this scene has no depth; choose a lifter: --lifter sfm (classical), --lifter dust3r or --lifter da3 "
+    "(your checkpoint: --backend-option dust3r.encoder=PATH / da3.checkpoint=PATH, see docs/models.md), "
+    "or --points DIR with precomputed point maps (docs/formats.md), or give depth with intrinsics and poses"
 )
 
 

@@ -28,9 +28,13 @@ matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
 matchers.register("flow", "graphseg.backends.matchers:FlowMatcher")
 matchers.register("sift", "graphseg.backends.matchers:SiftMatcher")
+matchers.register("precomputed-matches", "graphseg.backends.precomputed:PrecomputedMatcher")
 
 lifters = Registry("lifter", group="graphseg.lifters")
 lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
+lifters.register("precomputed-points", "graphseg.backends.precomputed:PrecomputedLifter")
+lifters.register("dust3r", "graphseg.backends.dust3r:DUSt3RLifter")
+lifters.register("da3", "graphseg.backends.da3:DA3Lifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")

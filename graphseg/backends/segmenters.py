@@ -342,6 +342,12 @@ def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | 
     """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image)."""
 
     folder = Path(folder)
+    if not any((folder / f"{name}{s}").is_file() for s in (".npz", ".png")):
+        from ..io.precomputed import (
+            encode_name,  # names saved by graphseg.io.precomputed.save_inputs
+        )
+
+        name = encode_name(name)
     npz, png = folder / f"{name}.npz", folder / f"{name}.png"
     if npz.exists():
         from ..graphs import GraphValidationError

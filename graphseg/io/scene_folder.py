@@ -1,4 +1,4 @@
-"""The native scene folder, format version 1.
+"""The native scene folder, format versions 1 and 2.
 
 ::
 
@@ -7,6 +7,8 @@
       rgb/000.png          8-bit RGB (PNG or JPEG), any file names listed in scene.json
       depth/000.png        optional, 16-bit PNG, metres = value / depth_scale, 0 = invalid
       instances/000.png    optional ground truth, 16-bit PNG, 0 = background, ids consistent across views
+      points/000.npz       version 2 only, optional: world point map (graphseg.io.precomputed format:
+                           points [H, W, 3] float32, NaN = invalid, optional confidence [H, W])
 
 ``scene.json``::
 
@@ -20,6 +22,11 @@ Cameras use OpenCV axes; ``cam_to_world`` maps camera to world coordinates in
 metres. ``depth``, ``instances``, ``objects`` and each view's ``K`` /
 ``cam_to_world`` are optional. A folder of plain images with no
 ``scene.json`` is a valid RGB-only scene.
+
+Version 2 adds the optional per-view ``"points": "points/000.npz"`` entry (for
+scenes lifted by a learned model, which have point maps but no depth). The
+writer writes version 2 only when some view has a point map and no depth
+(otherwise version 1, readable by older graphseg); the reader reads both.
 
 Every problem raises :class:`~graphseg.scene.SceneError` naming the file and
 the field.
@@ -66,6 +73,7 @@ __all__ = ["read_scene_folder", "write_scene_folder", "fill_scene_folder", "FORM
 
 FORMAT = "graphseg-scene"
 VERSION = 1
+VERSIONS = (1, 2)  # read; the writer picks the lowest that holds the scene (_version_for)
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 
 
@@ -138,8 +146,8 @@ def read_scene_folder(
         raise SceneError("expected a JSON object", where=where, field="scene.json")
     if doc.get("format") != FORMAT:
         raise SceneError(f"expected {FORMAT!r} (got {doc.get('format')!r})", where=where, field="format")
-    if doc.get("version") != VERSION:
-        raise SceneError(f"unsupported version {doc.get('version')!r} (this reader knows {VERSION})", where=where, field="version")
+    if doc.get("version") not in VERSIONS or isinstance(doc.get("version"), bool):
+        raise SceneError(f"unsupported version {doc.get('version')!r} (this reader knows {', '.join(map(str, VERSIONS))})", where=where, field="version")
     scale = doc.get("depth_scale", 1000.0)
     if not isinstance(scale, (int, float)) or isinstance(scale, bool) or not scale > 0:
         raise SceneError(f"expected a positive number (got {scale!r})", where=where, field="depth_scale")
@@ -182,13 +190,14 @@ def read_scene_folder(
             T = _matrix(vd["cam_to_world"], (4, 4), where, f"{f}.cam_to_world")
             if not is_rigid(T):
                 raise SceneError("not a rigid transform (rotation must be orthonormal with det +1, last row 0 0 0 1)", where=where, field=f"{f}.cam_to_world")
-        out.append(View(vd["name"], rgb, depth=depth, K=K, cam_to_world=T, instances=inst))
+        view = View(vd["name"], rgb, depth=depth, K=K, cam_to_world=T, instances=inst)
+        out.append(_read_points_entry(root, vd, view, doc["version"], where, f))
     _check_sizes(out, root)
     return Scene(out, objects, name=root.name, meta={"source": str(root), "format": FORMAT})
 
 
 def write_scene_folder(scene: Scene, path: str | os.PathLike[str], *, depth_scale: float = 1000.0, overwrite: bool = False) -> Path:
-    """Write ``scene`` as a format-v1 folder (via a temporary sibling, then renamed).
+    """Write ``scene`` as a format-v1 folder, v2 when a view has points but no depth (via a temporary sibling, then renamed).
 
     Depth is stored as ``round(depth * depth_scale)`` in 16 bits (0 = invalid);
     values beyond 65535 / depth_scale metres become invalid. File names come
@@ -219,7 +228,7 @@ def write_scene_folder(scene: Scene, path: str | os.PathLike[str], *, depth_scal
 
 
 def fill_scene_folder(scene: Scene, folder: str | os.PathLike[str], *, depth_scale: float = 1000.0) -> None:
-    """Write the files of a format-v1 scene into the existing (empty) ``folder``."""
+    """Write the files of a scene (format v1, or v2 when a view has points but no depth) into the existing (empty) ``folder``."""
     tmp = Path(folder)
     tmp.mkdir(parents=True, exist_ok=True)
     views = []
@@ -238,6 +247,7 @@ def fill_scene_folder(scene: Scene, folder: str | os.PathLike[str], *, depth_sca
             (tmp / "instances").mkdir(exist_ok=True)
             entry["instances"] = f"instances/{stem}.png"
             write_png(tmp / entry["instances"], np.asarray(v.instances).astype(np.uint16))
+        _write_points_entry(tmp, v, entry)
         if v.K is not None:
             entry["K"] = np.asarray(v.K, np.float64).tolist()
         if v.cam_to_world is not None:
@@ -245,9 +255,44 @@ def fill_scene_folder(scene: Scene, folder: str | os.PathLike[str], *, depth_sca
         views.append(entry)
     doc = {
         "format": FORMAT,
-        "version": VERSION,
+        "version": _version_for(scene),
         "depth_scale": float(depth_scale),
         "views": views,
         "objects": [{"id": int(k), "name": str(n)} for k, n in sorted(scene.objects.items())],
     }
     (tmp / "scene.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
+
+
+# ----------------------------------------------------------------------------- version 2: point maps
+def _version_for(scene: Scene) -> int:
+    """2 when some view has a point map and no depth (the point map must be stored), else 1."""
+    return 2 if any(v.points is not None and v.depth is None for v in scene.views) else 1
+
+
+def _write_points_entry(tmp: Path, view: View, entry: dict[str, Any]) -> None:
+    """Store a point map a view cannot recompute from depth as ``points/NAME.npz``."""
+    if view.points is None or view.depth is not None:
+        return
+    from .precomputed import write_point_map
+
+    path = write_point_map(tmp / "points", view.name, view.points, view.confidence)
+    entry["points"] = f"points/{path.name}"
+
+
+def _read_points_entry(root: Path, vd: dict[str, Any], view: View, version: int, where: str, field: str) -> View:
+    """The view with the point map of a v2 ``"points"`` entry (same size as the image)."""
+    rel = vd.get("points")
+    if rel is None:
+        return view
+    if version < 2:
+        raise SceneError("point maps need format version 2", where=where, field=f"{field}.points")
+    if not isinstance(rel, str) or not rel.endswith(".npz"):
+        raise SceneError(f"expected a path to an .npz file (got {rel!r})", where=where, field=f"{field}.points")
+    from .precomputed import read_point_map_file
+
+    path = confine(root, rel, where=where, field=f"{field}.points")
+    pm = read_point_map_file(path, view.shape)
+    if pm.source_shape != view.shape:
+        raise SceneError(f"expected [{view.shape[0]}, {view.shape[1]}, 3] like rgb (got {list(pm.source_shape) + [3]})", where=str(path), field="points")
+    return view.replace(points=pm.points, confidence=pm.confidence)
+

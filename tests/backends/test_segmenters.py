@@ -93,9 +93,10 @@ def test_rgbd_lifter_and_message():
     for a, b in zip(scene.views, lifted.views):
         np.testing.assert_allclose(np.nan_to_num(a.points), np.nan_to_num(b.points), atol=1e-5)
         assert b.confidence.shape == a.shape
-    with pytest.raises(SceneError, match="no depth; install/select a 3D lifter"):
+    with pytest.raises(SceneError, match="no depth; choose a lifter"):
         RGBDLifter()(Scene([scene[0].replace(depth=None)]))
-    assert "DUSt3R" in NO_DEPTH_MESSAGE
+    for choice in ("--lifter sfm", "--lifter dust3r", "--lifter da3", "--points DIR"):
+        assert choice in NO_DEPTH_MESSAGE
 
 
 def test_color_features_shape():

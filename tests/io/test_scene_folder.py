@@ -83,7 +83,7 @@ def edit(scene_dir, fn):
     [
         (lambda d: d.pop("format"), "format"),
         (lambda d: d.update(format="other"), "format"),
-        (lambda d: d.update(version=2), "version"),
+        (lambda d: d.update(version=3), "version"),
         (lambda d: d.update(depth_scale=-1), "depth_scale"),
         (lambda d: d.update(depth_scale="x"), "depth_scale"),
         (lambda d: d.update(views=[]), "views"),

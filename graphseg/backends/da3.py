@@ -1,0 +1,181 @@
+"""The ``da3`` lifter: Depth Anything 3 (any-view model) from the user's checkpoint.
+
+One forward pass over all N views gives per-view depth, depth confidence,
+extrinsics (world-to-camera) and intrinsics at the model's input size; they
+become world point maps ``c2w * backproject(depth, K)``, resized to the images by
+the documented nearest-neighbour rule (:mod:`graphseg.io.precomputed`), and
+:func:`graphseg.backends.align.finish_lift` brings them to metres (known camera
+poses, else the nominal working distance).
+
+The network is built from the package's own registry config
+(``depth_anything_3.registry.MODEL_REGISTRY[model]``) with ``create_object``;
+graphseg never imports ``depth_anything_3.api`` (it needs moviepy) and never
+downloads. Install: ``pip install "graphseg[da3]"`` then
+``pip install --no-deps depth-anything-3==0.1.1`` (its declared dependencies
+would pull torchvision and opencv-python).
+
+Examples
+--------
+>>> model_size_14((480, 640), 504)
+(378, 504)
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from ..registry import MissingDependencyError
+from ..scene import Scene, SceneError, backproject
+from .align import Alignment, lift_from_alignment
+
+__all__ = ["DA3Lifter", "load_da3", "model_size_14", "INSTALL"]
+
+INSTALL = 'pip install "graphseg[da3]" && pip install --no-deps depth-anything-3==0.1.1'
+_MEAN = np.array([0.485, 0.456, 0.406], np.float32)
+_STD = np.array([0.229, 0.224, 0.225], np.float32)
+
+
+def model_size_14(shape: tuple[int, int], size: int) -> tuple[int, int]:
+    """``(h, w)``: long side near ``size``, both multiples of DA3's patch size 14, aspect kept."""
+    H, W = shape
+    s = size / max(H, W)
+    return max(14, int(round(H * s / 14)) * 14), max(14, int(round(W * s / 14)) * 14)
+
+
+def _import(module: str) -> Any:
+    try:
+        return importlib.import_module(module)
+    except ImportError as err:
+        raise MissingDependencyError(f"the da3 lifter needs {module!r} ({err}): {INSTALL}; checkpoint: --backend-option da3.checkpoint=PATH") from err
+
+
+def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:
+    """Build the DA3 network ``model`` (e.g. ``"da3-small"``) and load ``checkpoint`` (strict).
+
+    ``checkpoint``: a ``.safetensors`` file (the Hugging Face ``model.safetensors``)
+    or a torch file of a state dict (optionally under ``"state_dict"`` / ``"model"``);
+    a leading ``model.`` on every key (the Hub wrapper's) is removed. None
+    keeps random weights (tests, benchmarks).
+    """
+    torch = _import("torch")
+    for dep in ("addict", "einops", "omegaconf"):
+        _import(dep)
+    cfg_mod = _import("depth_anything_3.cfg")
+    registry = _import("depth_anything_3.registry")
+    if model not in registry.MODEL_REGISTRY:
+        raise SceneError(f"unknown DA3 model {model!r}; choose one of {', '.join(registry.MODEL_REGISTRY)}", where="da3", field="model")
+    import contextlib
+    import io
+    import logging
+
+    with contextlib.redirect_stdout(io.StringIO()):  # DA3's logger prints to stdout
+        net = cfg_mod.create_object(cfg_mod.load_config(registry.MODEL_REGISTRY[model]))
+    logging.getLogger("depth_anything_3").setLevel(logging.WARNING)
+    if checkpoint is not None:
+        path = Path(checkpoint)
+        try:
+            if path.suffix == ".safetensors":
+                state = _import("safetensors.torch").load_file(str(path))
+            else:
+                state = torch.load(str(path), map_location="cpu", weights_only=True)
+        except MissingDependencyError:
+            raise
+        except Exception as err:
+            raise SceneError(f"cannot read the checkpoint ({str(err).splitlines()[0]})", where=str(path), field="checkpoint") from err
+        for key in ("state_dict", "model"):
+            if isinstance(state, dict) and isinstance(state.get(key), dict):
+                state = state[key]
+        if not isinstance(state, dict):
+            raise SceneError("expected a state dict", where=str(path), field="checkpoint")
+        if state and all(k.startswith("model.") for k in state):
+            state = {k[len("model."):]: v for k, v in state.items()}
+        try:
+            missing, unexpected = net.load_state_dict(state, strict=False)
+        except RuntimeError as err:  # size mismatches
+            missing, unexpected = [str(err).splitlines()[1].strip() if len(str(err).splitlines()) > 1 else str(err)], []
+        if missing or unexpected:
+            raise SceneError(
+                f"does not match {model} ({len(missing)} missing keys, e.g. {missing[:2]}; {len(unexpected)} unexpected, e.g. {unexpected[:2]}); "
+                "set --backend-option da3.model=NAME to the checkpoint's model",
+                where=str(path),
+                field="checkpoint",
+            )
+    return net.eval()
+
+
+class DA3Lifter:
+    """The ``da3`` lifter (options: :class:`DA3Lifter.Options`)."""
+
+    name = "da3"
+
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        checkpoint: str | None = Field(None, description="model.safetensors or a torch state-dict file")
+        model: str = Field("da3-small", description="DA3 registry config: da3-small, da3-base, da3-large, da3-giant, ...")
+        size: int = Field(504, ge=14, description="long side of the model input (pixels, multiple of 14)")
+        min_conf: float = Field(0.0, ge=0, description="pixels below this depth confidence are left invalid")
+        scale: Literal["auto", "nominal", "none"] = "auto"
+        use_ray_pose: bool = Field(False, description="DA3's ray-based pose head instead of the camera decoder")
+        random_weights: bool = Field(False, description="testing and benchmarks only: no checkpoint, random weights")
+        threads: int | None = Field(None, ge=1, description="torch CPU threads")
+
+    def __init__(self, **options: Any) -> None:
+        self.options = opts = self.Options(**options)
+        if opts.checkpoint is None and not opts.random_weights:
+            raise SceneError(f"no checkpoint given; set --backend-option da3.checkpoint=PATH; {INSTALL}", where="da3", field="checkpoint")
+        if opts.checkpoint is not None and not Path(opts.checkpoint).is_file():
+            raise SceneError(f"no such file; set --backend-option da3.checkpoint=PATH; {INSTALL}", where=str(opts.checkpoint), field="checkpoint")
+        self.net = load_da3(opts.model, opts.checkpoint)
+
+    def predict(self, rgbs: list[np.ndarray], hw: tuple[int, int]) -> dict[str, np.ndarray]:
+        """Raw DA3 outputs for uint8 images: ``depth``, ``conf`` ``[N, h, w]``, ``extrinsics`` ``[N, 3, 4]`` (w2c), ``intrinsics`` ``[N, 3, 3]``."""
+        import cv2
+        import torch
+
+        x = np.stack([(cv2.resize(np.ascontiguousarray(r), (hw[1], hw[0]), interpolation=cv2.INTER_AREA).astype(np.float32) / 255.0 - _MEAN) / _STD for r in rgbs])
+        t = torch.from_numpy(x.transpose(0, 3, 1, 2).copy())[None]
+        import contextlib
+        import io
+
+        threads = torch.get_num_threads()
+        if self.options.threads:
+            torch.set_num_threads(self.options.threads)
+        try:
+            with torch.inference_mode(), contextlib.redirect_stdout(io.StringIO()):
+                out = self.net(t, use_ray_pose=self.options.use_ray_pose)
+        finally:
+            torch.set_num_threads(threads)
+        return {
+            "depth": out["depth"][0].float().numpy(),
+            "conf": out["depth_conf"][0].float().numpy(),
+            "extrinsics": out["extrinsics"][0].double().numpy(),
+            "intrinsics": out["intrinsics"][0].double().numpy(),
+        }
+
+    def __call__(self, scene: Scene) -> Scene:
+        hw = model_size_14(scene.views[0].shape, self.options.size)
+        raw = self.predict([v.rgb for v in scene.views], hw)
+        n = scene.num_views
+        c2w = np.tile(np.eye(4), (n, 1, 1))
+        pts, conf = [], []
+        for k in range(n):
+            w2c = np.eye(4)
+            w2c[:3] = raw["extrinsics"][k]
+            T = np.linalg.inv(w2c)
+            U, _, Vt = np.linalg.svd(T[:3, :3])  # exact rotation (float32 network output)
+            T[:3, :3] = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+            c2w[k] = T
+            d = raw["depth"][k].astype(np.float32)
+            c = raw["conf"][k].astype(np.float32)
+            d = np.where(np.isfinite(d) & (c >= self.options.min_conf), d, np.float32(0))
+            pts.append(backproject(d, raw["intrinsics"][k], T))
+            conf.append(np.where(d > 0, c, np.float32(0)))
+        al = Alignment(points=pts, confidence=conf, cam_to_world=c2w, K=raw["intrinsics"].copy(), info={})
+        if not all(np.isfinite(p).any() for p in pts):
+            raise SceneError("DA3 gave no valid depth for some view (check the checkpoint and --backend-option da3.model)", where=scene.name, field="points")
+        return lift_from_alignment(scene, al, hw, scale=self.options.scale, lifter=self.name)
