@@ -23,6 +23,8 @@ segmenters.register("superpixel", "graphseg.backends.segmenters:SuperpixelSegmen
 segmenters.register("geometric", "graphseg.backends.segmenters:GeometricSegmenter")
 segmenters.register("precomputed", "graphseg.backends.segmenters:PrecomputedSegmenter")
 segmenters.register("oracle-parts", "graphseg.backends.segmenters:OraclePartsSegmenter")
+segmenters.register("sam2", "graphseg.backends.sam:SAM2Segmenter")
+segmenters.register("sam-onnx", "graphseg.backends.sam:SamOnnxSegmenter")
 
 matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
