@@ -30,6 +30,8 @@ matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
 matchers.register("flow", "graphseg.backends.matchers:FlowMatcher")
 matchers.register("sift", "graphseg.backends.matchers:SiftMatcher")
+matchers.register("loftr", "graphseg.backends.dense_matchers:LoFTRMatcher")
+matchers.register("roma", "graphseg.backends.dense_matchers:RoMaMatcher")
 
 lifters = Registry("lifter", group="graphseg.lifters")
 lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")

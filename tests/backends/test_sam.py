@@ -30,6 +30,12 @@ def tiny_sam2(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def sam2_seg(tiny_sam2):
+    """The ``sam2`` backend loaded from the checkpoint (config inferred from the file name)."""
+    return segmenters.resolve("sam2", checkpoint=str(tiny_sam2[1]), **FAST)
+
+
+@pytest.fixture(scope="module")
 def image():
     rng = np.random.default_rng(0)
     rgb = np.zeros((48, 64, 3), np.uint8)
@@ -45,14 +51,11 @@ def test_registered():
     assert segmenters.get("sam-onnx") is SamOnnxSegmenter
 
 
-def test_sam2_segmenter_loads_checkpoint_and_segments(tiny_sam2, image):
-    _, path = tiny_sam2
-    seg = segmenters.resolve("sam2", checkpoint=str(path), **FAST)  # config inferred from the file name
+def test_sam2_segmenter_loads_checkpoint_and_segments(tiny_sam2, sam2_seg, image):
+    seg = sam2_seg
     masks = seg(View("0", image))
     assert isinstance(masks, list) and len(masks) >= 1
     assert all(m.dtype == bool and m.shape == (48, 64) for m in masks)
-    props = seg.proposals(View("0", image))
-    assert np.all(np.diff(props.iou) <= 0)  # best predicted IoU first
     # the checkpoint's weights were loaded: same parameters as the saved model
     ref = dict(tiny_sam2[0].named_parameters())
     for k, v in seg.model.named_parameters():
@@ -153,14 +156,15 @@ def onnx_pair(tiny_sam2, tmp_path_factory):
     return d / "enc.onnx", d / "dec.onnx"
 
 
-def test_sam_onnx_matches_torch_backend(tiny_sam2, onnx_pair, image):
+def test_sam_onnx_matches_torch_backend(sam2_seg, onnx_pair, image):
     enc, dec = onnx_pair
     opts = {k: v for k, v in FAST.items() if k != "image_size"}
     onnx_seg = segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(dec), points_per_batch=4, **opts)
     assert onnx_seg.image_size == SIZE  # read from the encoder's fixed input
     props = onnx_seg.proposals(View("0", image))
     assert props.masks.shape[1:] == (48, 64) and props.masks.dtype == bool and len(props.masks) >= 1
-    ref = segmenters.resolve("sam2", checkpoint=str(tiny_sam2[1]), **FAST).proposals(View("0", image))
+    ref = sam2_seg.proposals(View("0", image))
+    assert np.all(np.diff(ref.iou) <= 0)  # best predicted IoU first
     assert len(ref.masks) == len(props.masks)
     assert np.allclose(ref.iou, props.iou, atol=1e-3)
     agree = (ref.masks == props.masks).mean()
