@@ -38,3 +38,4 @@ lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")
+features.register("dinov2", "graphseg.backends.dino:DINOv2Features")
