@@ -69,6 +69,13 @@ def validate_options(model: type[BaseModel], options: dict[str, Any], backend: s
         raise SceneError(f"{e['msg']} (got {e.get('input')!r})", field=field) from None
 
 
+# packages whose declared dependencies pull torchvision or opencv-python: installed without them
+_NO_DEPS = {
+    "sam2": "SAM2_BUILD_CUDA=0 pip install --no-build-isolation --no-deps sam2",
+    "romatch": "pip install --no-deps romatch",
+}
+
+
 def require_backend(module: str, backend: str, extra: str, option: str | None = "checkpoint") -> Any:
     """Import ``module`` for ``backend`` or raise a one-line :class:`MissingDependencyError`.
 
@@ -81,14 +88,22 @@ def require_backend(module: str, backend: str, extra: str, option: str | None = 
     ... except MissingDependencyError as err:
     ...     print(err)
     sam2 needs 'no_such_module_xyz': pip install "graphseg[sam2]", then set --backend-option sam2.checkpoint=PATH
+    >>> try:
+    ...     require_backend("romatch.no_such_module", "roma", "roma", option=None)
+    ... except MissingDependencyError as err:
+    ...     print(err)  # doctest: +ELLIPSIS
+    roma needs '...': pip install "graphseg[roma]"...
     """
     import importlib
 
     try:
         return importlib.import_module(module)
     except ImportError as err:
+        missing = getattr(err, "name", None) or module
+        top = missing.split(".")[0]
+        also = f" && {_NO_DEPS[top]}" if top in _NO_DEPS else ""
         then = f", then set --backend-option {backend}.{option}=PATH" if option else ""
-        raise MissingDependencyError(f"{backend} needs '{module}': pip install \"graphseg[{extra}]\"{then}") from err
+        raise MissingDependencyError(f"{backend} needs '{missing}': pip install \"graphseg[{extra}]\"{also}{then}") from err
 
 
 def checkpoint_path(path: str | Path | None, backend: str, extra: str, option: str = "checkpoint") -> Path:

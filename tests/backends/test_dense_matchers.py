@@ -200,3 +200,10 @@ def test_roma_errors(small_roma, tmp_path):
     assert err.value.where == str(ckpt)
     with pytest.raises(SceneError, match="multiple of 14"):
         matchers.resolve("roma", checkpoint=str(ckpt), dinov2_checkpoint=str(dino), coarse_res=100)
+
+
+def test_roma_missing_package_names_no_deps_install(monkeypatch):
+    monkeypatch.setitem(sys.modules, "romatch", None)
+    msg = r'roma needs \'romatch\': pip install "graphseg\[roma\]" && pip install --no-deps romatch, then set --backend-option roma.checkpoint=PATH'
+    with pytest.raises(MissingDependencyError, match=msg):
+        matchers.resolve("roma", checkpoint=__file__, model="tiny")

@@ -106,7 +106,8 @@ def test_sam2_unknown_option_lists_valid_keys():
 
 def test_sam2_missing_package_names_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "sam2", None)
-    with pytest.raises(MissingDependencyError, match=r'pip install "graphseg\[sam2\]", then set --backend-option sam2.checkpoint=PATH'):
+    msg = r'pip install "graphseg\[sam2\]" && SAM2_BUILD_CUDA=0 pip install --no-build-isolation --no-deps sam2, then set --backend-option sam2.checkpoint=PATH'
+    with pytest.raises(MissingDependencyError, match=msg):
         segmenters.resolve("sam2", checkpoint="x.pt")
 
 
