@@ -125,7 +125,8 @@ class LoFTRMatcher(ModelBackend):
     Both images are resized to ``image_size`` (W, H; the paper's 640x480, each a
     multiple of 8) and converted to grey. Options: ``checkpoint`` (required),
     ``image_size``, ``match_threshold`` (LoFTR's coarse confidence threshold,
-    0.2), ``num_matches``, ``sample_threshold``, ``seed``, ``device``.
+    0.2), ``temp_bug_fix`` (True for LoFTR's ``indoor_ds_new.ckpt``),
+    ``num_matches``, ``sample_threshold``, ``seed``, ``device``.
     """
 
     name = "loftr"
@@ -135,6 +136,7 @@ class LoFTRMatcher(ModelBackend):
     class Options(_MatcherOptions):
         image_size: tuple[int, int] = (640, 480)
         match_threshold: float = Field(0.2, ge=0, le=1)
+        temp_bug_fix: bool = False
 
         @field_validator("image_size")
         @classmethod
@@ -159,6 +161,7 @@ class LoFTRMatcher(ModelBackend):
             state = {k[len("matcher.") :]: v for k, v in state.items()}
         cfg = copy.deepcopy(default_cfg)
         cfg["match_coarse"]["thr"] = o.match_threshold
+        cfg["coarse"]["temp_bug_fix"] = o.temp_bug_fix
         self.model = LoFTR(pretrained=None, config=cfg)
         _load_into(self.model, state, path, "loftr", what="kornia's LoFTR")
         self.model = self.model.to(o.device).eval()

@@ -1,7 +1,5 @@
 """DINOv2 dense features from a checkpoint file (torch) and from an ONNX export, random weights."""
 
-import warnings
-
 import numpy as np
 import pytest
 
@@ -70,26 +68,13 @@ def test_dinov2_onnx_matches_torch(vits14, fx, rgb, tmp_path):
     ref = fx(View("0", rgb))
     x, h, w = fx._input(rgb)
 
-    class Tokens(torch.nn.Module):
-        def __init__(self, m):
-            super().__init__()
-            self.m = m
+    from graphseg.backends.onnx_export import export_dinov2_onnx
 
-        def forward(self, x):
-            return self.m.forward_features(x)["x_norm_patchtokens"]
-
-    # export at a fixed input size: the position embedding is resized once, outside the graph
-    pe = model.interpolate_pos_encoding(torch.zeros(1, 1 + h * w, model.embed_dim), *x.shape[2:]).detach()
-    onnx_path = tmp_path / "dinov2_vits14.onnx"
-    mp = pytest.MonkeyPatch()
-    mp.setattr(model, "interpolate_pos_encoding", lambda *a: pe)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        torch.onnx.export(Tokens(model), (torch.from_numpy(x),), onnx_path, input_names=["pixel_values"], output_names=["tokens"], dynamo=False, opset_version=17)
-    mp.undo()
-    fx = features.resolve("dinov2", checkpoint=str(onnx_path))
-    assert fx.fixed == (84, 112)  # read from the model's fixed input
-    out = fx(View("0", rgb))
+    onnx_path = export_dinov2_onnx(model, tmp_path / "dinov2_vits14.onnx", *x.shape[2:])
+    assert "interpolate_pos_encoding" not in vars(model)  # the model is left as it was
+    fx_onnx = features.resolve("dinov2", checkpoint=str(onnx_path))
+    assert fx_onnx.fixed == (84, 112)  # read from the model's fixed input
+    out = fx_onnx(View("0", rgb))
     assert out.shape == ref.shape and np.allclose(out, ref, atol=1e-4)
     with pytest.raises(SceneError, match="no output 'feats'; its outputs: tokens"):
         features.resolve("dinov2", checkpoint=str(onnx_path), onnx_output="feats")

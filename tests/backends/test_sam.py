@@ -1,7 +1,6 @@
 """SAM 2 segmenters on the real model code with random weights (tiny, 256 px)."""
 
 import sys
-import warnings
 
 import numpy as np
 import pytest
@@ -112,49 +111,18 @@ def test_sam2_missing_package_names_extra(monkeypatch):
 
 
 # ----------------------------------------------------------------------------- ONNX
-class _Encoder(torch.nn.Module):
-    def __init__(self, m):
-        super().__init__()
-        self.m = m
-
-    def forward(self, x):
-        _, feats, _, sizes = self.m._prepare_backbone_features(self.m.forward_image(x))
-        feats[-1] = feats[-1] + self.m.no_mem_embed
-        maps = [f.permute(1, 2, 0).reshape(1, -1, *hw) for f, hw in zip(feats, sizes)]
-        return maps[-1], maps[0], maps[1]
-
-
-class _Decoder(torch.nn.Module):
-    def __init__(self, m):
-        super().__init__()
-        self.m = m
-
-    def forward(self, embed, hr0, hr1, coords, labels):
-        pe = self.m.sam_prompt_encoder
-        sparse, dense = pe(points=(coords, labels.int()), boxes=None, masks=None)
-        low, iou, _, _ = self.m.sam_mask_decoder(
-            image_embeddings=embed, image_pe=pe.get_dense_pe(), sparse_prompt_embeddings=sparse,
-            dense_prompt_embeddings=dense, multimask_output=True, repeat_image=True, high_res_features=[hr0, hr1],
-        )
-        return low, iou
-
-
 @pytest.fixture(scope="module")
 def onnx_pair(tiny_sam2, tmp_path_factory):
-    """The tiny SAM 2's encoder and prompt encoder + mask decoder exported with torch.onnx (legacy exporter)."""
+    """The tiny SAM 2 exported with graphseg's exporter (encoder + prompt encoder/mask decoder)."""
     pytest.importorskip("onnxruntime")
     pytest.importorskip("onnx")
-    model, _ = tiny_sam2
-    d = tmp_path_factory.mktemp("sam_onnx")
-    x = torch.randn(1, 3, SIZE, SIZE)
-    with warnings.catch_warnings(), torch.no_grad():
-        warnings.simplefilter("ignore")
-        feats = _Encoder(model)(x)
-        torch.onnx.export(_Encoder(model), (x,), d / "enc.onnx", input_names=["image"], output_names=["image_embed", "high_res_feats_0", "high_res_feats_1"], dynamo=False, opset_version=17)
-        pc, pl = torch.rand(2, 1, 2) * SIZE, torch.ones(2, 1)
-        axes = {n: {0: "b"} for n in ("point_coords", "point_labels", "masks", "iou_predictions")}
-        torch.onnx.export(_Decoder(model), (*feats, pc, pl), d / "dec.onnx", input_names=["image_embed", "high_res_feats_0", "high_res_feats_1", "point_coords", "point_labels"], output_names=["masks", "iou_predictions"], dynamic_axes=axes, dynamo=False, opset_version=17)
-    return d / "enc.onnx", d / "dec.onnx"
+    from graphseg.backends.onnx_export import export_sam2_onnx
+
+    out = tmp_path_factory.mktemp("sam_onnx")
+    enc, dec = export_sam2_onnx(tiny_sam2[0], out)
+    with pytest.raises(FileExistsError):  # never overwrites
+        export_sam2_onnx(tiny_sam2[0], out)
+    return enc, dec
 
 
 def test_sam_onnx_matches_torch_backend(sam2_seg, onnx_pair, image):
