@@ -152,14 +152,14 @@ def masks_to_boxes(masks: np.ndarray) -> np.ndarray:
     array([[2, 1, 5, 3],
            [0, 0, 0, 0]])
     """
-    masks = np.asarray(masks, bool)
+    masks = np.asarray(masks, dtype=bool)
     if masks.ndim != 3:
         raise ValueError(f"expected masks of shape [N, H, W] (got {list(masks.shape)})")
     n, h, w = masks.shape
-    cols = masks.any(1)
-    rows = masks.any(2)
+    cols: np.ndarray = np.any(masks, axis=1)
+    rows: np.ndarray = np.any(masks, axis=2)
     boxes = np.zeros((n, 4), np.int64)
-    has = cols.any(1)
+    has: np.ndarray = np.any(cols, axis=1)
     boxes[has, 0] = cols[has].argmax(1)
     boxes[has, 2] = w - cols[has][:, ::-1].argmax(1)
     boxes[has, 1] = rows[has].argmax(1)
@@ -465,5 +465,5 @@ def generate_masks(
         new_boxes = masks_to_boxes(new_masks)
         props = props._replace(masks=new_masks, boxes=new_boxes)
         props = props.take(box_nms(new_boxes, unchanged, box_nms_thresh))
-        props = props.take(props.masks.any((1, 2)))
+        props = props.take(np.asarray(props.masks.any(axis=(1, 2))))
     return props.take(np.argsort(-props.iou, kind="stable"))

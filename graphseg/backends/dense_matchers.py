@@ -159,7 +159,7 @@ class LoFTRMatcher(ModelBackend):
         state = load_state_dict_file(path, "loftr")
         if state and all(k.startswith("matcher.") for k in state):
             state = {k[len("matcher.") :]: v for k, v in state.items()}
-        cfg = copy.deepcopy(default_cfg)
+        cfg: Any = copy.deepcopy(default_cfg)
         cfg["match_coarse"]["thr"] = o.match_threshold
         cfg["coarse"]["temp_bug_fix"] = o.temp_bug_fix
         self.model = LoFTR(pretrained=None, config=cfg)

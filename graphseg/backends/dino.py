@@ -139,7 +139,7 @@ class DINOv2Features(ModelBackend):
         import cv2
 
         H, W = self.fixed if self.onnx and self.fixed else patch_grid(rgb.shape[:2], self.options.image_size)
-        x = cv2.resize(rgb, (W, H), interpolation=cv2.INTER_AREA if W < rgb.shape[1] else cv2.INTER_CUBIC).astype(np.float32) / 255.0
+        x: Any = cv2.resize(rgb, (W, H), interpolation=cv2.INTER_AREA if W < rgb.shape[1] else cv2.INTER_CUBIC).astype(np.float32) / 255.0
         x = (x - np.array(IMAGENET_MEAN, np.float32)) / np.array(IMAGENET_STD, np.float32)
         return np.ascontiguousarray(x.transpose(2, 0, 1)[None]), H // 14, W // 14
 

@@ -153,6 +153,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--height", type=int, default=336)
     ap.add_argument("--width", type=int, default=448)
     args = ap.parse_args(argv)
+    paths: tuple[Path, ...]
     if args.model == "sam2":
         from .sam import load_sam2
 

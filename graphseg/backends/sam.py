@@ -346,7 +346,7 @@ class SamOnnxSegmenter(ModelBackend):
         h, w = rgb.shape[:2]
         s = self.image_size
         sx, sy, nw, nh = self._frame(h, w)
-        img = cv2.resize(rgb, (nw, nh), interpolation=cv2.INTER_AREA if nw < w else cv2.INTER_LINEAR).astype(np.float32) / 255.0
+        img: Any = cv2.resize(rgb, (nw, nh), interpolation=cv2.INTER_AREA if nw < w else cv2.INTER_LINEAR).astype(np.float32) / 255.0
         img = (img - np.array(o.pixel_mean, np.float32)) / np.array(o.pixel_std, np.float32)
         x = np.zeros((1, 3, s, s), np.float32)
         x[0, :, :nh, :nw] = img.transpose(2, 0, 1)
