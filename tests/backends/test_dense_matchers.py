@@ -93,6 +93,20 @@ def test_loftr_maps_keypoints_to_original_pixels(loftr_ckpt):
     assert out.certainty.tolist() == pytest.approx([0.9, 0.3])
 
 
+def test_pipeline_passes_num_matches_and_config_options_to_loftr(loftr_ckpt):
+    from graphseg.config import Config
+    from graphseg.pipeline import compute_matches
+    from graphseg.sim.boxes import Box
+    from graphseg.testing.scenes import box_scene
+
+    scene = box_scene([Box((0.0, 0.0, 0.05), (0.1, 0.1, 0.1))], views=2, shape=(48, 64), rng=0)
+    opts = {"checkpoint": str(loftr_ckpt), "image_size": [64, 48], "match_threshold": 0.0}
+    cfg = Config.model_validate({"backends": {"matcher": "loftr", "num_matches": 1, "options": {"loftr": opts}}})
+    matches = compute_matches(scene, config=cfg, pairs=[(0, 1)])
+    assert set(matches) == {(0, 1)}
+    assert len(matches[(0, 1)]) <= 1  # backends.num_matches reaches the matcher through its signature
+
+
 def test_loftr_errors_are_one_line(loftr_ckpt, tmp_path):
     with pytest.raises(SceneError, match="no checkpoint given; set --backend-option loftr.checkpoint=PATH"):
         matchers.resolve("loftr")

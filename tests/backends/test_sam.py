@@ -159,3 +159,17 @@ def test_sam_onnx_bad_names_and_missing_files(onnx_pair, tmp_path):
     assert err.value.field == "backends.options.sam-onnx.decoder" and "graphseg[onnx]" in str(err.value)
     with pytest.raises(SceneError, match="pattern"):
         segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(dec), resize="stretch")
+
+
+def test_pipeline_takes_sam2_options_from_the_config(tiny_sam2):
+    from graphseg.config import Config
+    from graphseg.pipeline import compute_masks
+    from graphseg.sim.boxes import Box
+    from graphseg.testing.scenes import box_scene
+
+    scene = box_scene([Box((0.0, 0.0, 0.05), (0.1, 0.1, 0.1))], views=2, shape=(48, 64), rng=0)
+    opts = {"checkpoint": str(tiny_sam2[1]), **FAST}
+    cfg = Config.model_validate({"backends": {"segmenter": "sam2", "options": {"sam2": opts}}})
+    masks = compute_masks(scene, config=cfg)
+    assert len(masks) == 2 and all(len(ms) >= 1 for ms in masks)
+    assert all(m.dtype == bool and m.shape == (48, 64) for ms in masks for m in ms)
