@@ -29,6 +29,13 @@ def vits14(tmp_path_factory):
     pytest.importorskip("kornia")
     pytest.importorskip("einops")
     from graphseg.backends.dino import build_dinov2
+    from graphseg.backends.romatch_compat import import_romatch
+    from graphseg.registry import MissingDependencyError
+
+    try:
+        import_romatch()
+    except MissingDependencyError as err:
+        pytest.skip(str(err))
 
     torch.manual_seed(0)
     model = build_dinov2("vits14").eval()
