@@ -173,3 +173,11 @@ def test_pipeline_takes_sam2_options_from_the_config(tiny_sam2):
     masks = compute_masks(scene, config=cfg)
     assert len(masks) == 2 and all(len(ms) >= 1 for ms in masks)
     assert all(m.dtype == bool and m.shape == (48, 64) for ms in masks for m in ms)
+
+
+def test_sam_onnx_longest_side_crops_logits_to_the_image(onnx_pair, image):
+    # SAM 1 layout: 64x48 -> 256x192 padded to 256x256; low-res logits 64x64 -> valid part 48x64
+    enc, dec = onnx_pair
+    seg = segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(dec), resize="longest_side")
+    logits, iou = seg.predictor(image)(np.array([[10.0, 20.0]]), np.ones(1, np.int64))
+    assert logits.shape == (1, 3, 48, 64) and iou.shape == (1, 3)
