@@ -219,7 +219,8 @@ class SAM2Segmenter(ModelBackend):
     ``config`` (inferred from the checkpoint name), ``image_size`` (None = the
     config's 1024), ``device`` (``cpu``), and every :class:`AutomaskOptions` field.
 
-    Returns a list of boolean ``[H, W]`` masks (may overlap), best predicted IoU first.
+    Returns a list of boolean ``[H, W]`` masks (may overlap), best predicted IoU
+    first, or an all-zero label image when no mask passes the filters.
     """
 
     name = "sam2"
@@ -245,8 +246,8 @@ class SAM2Segmenter(ModelBackend):
     def options_generator(self) -> dict[str, Any]:
         return AutomaskOptions.generator_kwargs(self.options)
 
-    def __call__(self, view: View) -> list[np.ndarray]:
-        return list(self.proposals(view).masks)
+    def __call__(self, view: View) -> list[np.ndarray] | np.ndarray:
+        return _masks_or_empty(self.proposals(view), view)
 
 
 # ----------------------------------------------------------------------------- ONNX
@@ -390,8 +391,15 @@ class SamOnnxSegmenter(ModelBackend):
         rgb = _rgb(view)
         return generate_masks(self.predictor(rgb), rgb.shape[:2], predict_crop=_crop_predictor(self.predictor, rgb), **AutomaskOptions.generator_kwargs(self.options))
 
-    def __call__(self, view: View) -> list[np.ndarray]:
-        return list(self.proposals(view).masks)
+    def __call__(self, view: View) -> list[np.ndarray] | np.ndarray:
+        return _masks_or_empty(self.proposals(view), view)
+
+
+def _masks_or_empty(props: Proposals, view: View) -> list[np.ndarray] | np.ndarray:
+    """The kept masks, or an all-zero label image (no segment) when none was kept."""
+    if len(props.masks) == 0:
+        return np.zeros(view.shape, np.int32)
+    return list(props.masks)
 
 
 def _pick(outputs: dict[str, Any], ndim: int, names: tuple[str, ...]) -> str | None:

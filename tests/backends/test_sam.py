@@ -181,3 +181,12 @@ def test_sam_onnx_longest_side_crops_logits_to_the_image(onnx_pair, image):
     seg = segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(dec), resize="longest_side")
     logits, iou = seg.predictor(image)(np.array([[10.0, 20.0]]), np.ones(1, np.int64))
     assert logits.shape == (1, 3, 48, 64) and iou.shape == (1, 3)
+
+
+def test_sam2_no_mask_kept_gives_an_empty_label_image(sam2_seg, image):
+    sam2_seg.options.pred_iou_thresh = 1e9  # nothing passes
+    try:
+        out = sam2_seg(View("0", image))
+    finally:
+        sam2_seg.options.pred_iou_thresh = FAST["pred_iou_thresh"]
+    assert isinstance(out, np.ndarray) and out.shape == (48, 64) and not out.any()
