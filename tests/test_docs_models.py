@@ -11,7 +11,8 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def test_paper_config_file_validates():
-    block = re.findall(r"```yaml\n(.*?)```", (DOCS / "models.md").read_text(), flags=re.S)[0]
+    section = (DOCS / "models.md").read_text().split("## The paper's configuration as one config file")[1]
+    block = re.findall(r"```yaml\n(.*?)```", section, flags=re.S)[0]
     cfg = Config.model_validate(yaml.safe_load(block))
     assert cfg.backends.lifter == "dust3r" and cfg.chamfer_3d.tau == 5e-4 and cfg.background.max_overlap == 0.09
 

@@ -23,12 +23,16 @@ segmenters.register("superpixel", "graphseg.backends.segmenters:SuperpixelSegmen
 segmenters.register("geometric", "graphseg.backends.segmenters:GeometricSegmenter")
 segmenters.register("precomputed", "graphseg.backends.segmenters:PrecomputedSegmenter")
 segmenters.register("oracle-parts", "graphseg.backends.segmenters:OraclePartsSegmenter")
+segmenters.register("sam2", "graphseg.backends.sam:SAM2Segmenter")
+segmenters.register("sam-onnx", "graphseg.backends.sam:SamOnnxSegmenter")
 
 matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
 matchers.register("flow", "graphseg.backends.matchers:FlowMatcher")
 matchers.register("sift", "graphseg.backends.matchers:SiftMatcher")
 matchers.register("precomputed-matches", "graphseg.backends.precomputed:PrecomputedMatcher")
+matchers.register("loftr", "graphseg.backends.dense_matchers:LoFTRMatcher")
+matchers.register("roma", "graphseg.backends.dense_matchers:RoMaMatcher")
 
 lifters = Registry("lifter", group="graphseg.lifters")
 lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
@@ -38,3 +42,4 @@ lifters.register("da3", "graphseg.backends.da3:DA3Lifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")
+features.register("dinov2", "graphseg.backends.dino:DINOv2Features")
