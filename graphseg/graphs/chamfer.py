@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .coalesce import combine_keys, group_by_key
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
@@ -135,24 +136,14 @@ def node_point_sets(
     if voxel_size is not None and voxel_size > 0 and node.size:
         ijk = np.floor((P - P.min(0)) / voxel_size).astype(np.int64)
         ext = ijk.max(0) + 1
-        if float(num_nodes) * float(np.prod(ext.astype(np.float64))) < 2**62:
-            key = ((node * ext[0] + ijk[:, 0]) * ext[1] + ijk[:, 1]) * ext[2] + ijk[:, 2]
-            order = np.argsort(key)  # order within a voxel does not matter (means)
-            skey = key[order]
-        else:  # pragma: no cover - astronomically large scenes
-            order = np.lexsort((ijk[:, 2], ijk[:, 1], ijk[:, 0], node))
-            skey = np.stack([node, *ijk.T], 1)[order]
-            skey = np.r_[0, np.cumsum(np.any(skey[1:] != skey[:-1], 1))]
-        new = np.r_[True, skey[1:] != skey[:-1]]
-        grp = np.cumsum(new) - 1
-        g = int(grp[-1]) + 1
-        cnt = np.bincount(grp, minlength=g).astype(np.float64)
-        Ps = P[order]
-        P = np.stack([np.bincount(grp, weights=Ps[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]
+        grouped = group_by_key(combine_keys([node, ijk[:, 0], ijk[:, 1], ijk[:, 2]], [num_nodes, *ext.tolist()]))
+        grp, g = grouped.groups, grouped.num_groups  # groups ordered by (node, voxel)
+        cnt = grouped.counts.astype(np.float64)
+        P = np.stack([np.bincount(grp, weights=P[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]
         if C is not None:
-            Cs = C[order].astype(np.float64)
-            C = np.rint(np.stack([np.bincount(grp, weights=Cs[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
-        node = node[order][new]
+            Cf = C.astype(np.float64)
+            C = np.rint(np.stack([np.bincount(grp, weights=Cf[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
+        node = node[grouped.first]
     else:
         order = np.argsort(node, kind="stable")
         node, P = node[order], P[order].astype(np.float64)

@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from .coalesce import combine_keys, group_by_key
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
@@ -56,19 +57,10 @@ def pair_counts(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.nd
     """
     a = np.asarray(a, np.int64)
     b = np.asarray(b, np.int64)
-    key = a * n + b
-    if n * n <= max(4 * key.size, 1 << 16):
-        cnt = np.bincount(key, minlength=n * n)
-        nz = np.flatnonzero(cnt)
-        return nz // n, nz % n, cnt[nz].astype(np.int64)
-    key = np.sort(key)
-    if not key.size:
-        z = np.zeros(0, np.int64)
-        return z, z, z
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    count = np.diff(np.r_[starts, key.size])
-    uk = key[starts]
-    return uk // n, uk % n, count.astype(np.int64)
+    g = group_by_key(combine_keys([a, b], [n, n]), num_keys=n * n if n * n < 2**62 else None)
+    if n * n < 2**62:
+        return g.keys // n, g.keys % n, g.counts
+    return a[g.first], b[g.first], g.counts  # pragma: no cover - rank keys for astronomically many nodes
 
 
 def lookup_pixels(image: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
