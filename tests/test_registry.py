@@ -5,7 +5,7 @@ import pytest
 
 from graphseg import registry as regmod
 from graphseg.graphs import contractors, edge_adders
-from graphseg.graphs.pixel_match import PixelMatchEdgeAdder
+from graphseg.graphs.pixel_match import PixelMatch
 from graphseg.registry import (
     MissingDependencyError,
     PluginLoadWarning,
@@ -17,9 +17,9 @@ from graphseg.registry import (
 
 def test_builtins_by_name_class_instance():
     a = edge_adders.resolve("pixel_match", tau=0.3)
-    assert isinstance(a, PixelMatchEdgeAdder) and a.tau == 0.3
-    assert isinstance(edge_adders.resolve(PixelMatchEdgeAdder), PixelMatchEdgeAdder)
-    inst = PixelMatchEdgeAdder()
+    assert isinstance(a, PixelMatch) and a.tau == 0.3
+    assert isinstance(edge_adders.resolve(PixelMatch), PixelMatch)
+    inst = PixelMatch()
     assert edge_adders.resolve(inst) is inst
     with pytest.raises(TypeError, match="cannot apply options"):
         edge_adders.resolve(inst, tau=1.0)

@@ -23,11 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
+from .criterion import Criterion
 from .coalesce import combine_keys, group_by_key
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
@@ -38,7 +40,7 @@ __all__ = [
     "directed_chamfer",
     "remove_outliers",
     "chamfer_edges",
-    "Chamfer3DEdgeAdder",
+    "Chamfer3D",
 ]
 
 
@@ -362,56 +364,54 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     )
 
 
-class Chamfer3DEdgeAdder:
-    """The ``chamfer_3d`` edge adder: gathers node points, downsamples, cleans, tests.
+class Chamfer3D(Criterion):
+    """The ``chamfer_3d`` criterion: gathers node points, downsamples, cleans, tests.
 
-    Parameters
-    ----------
-    tau : float
-        Threshold in m^2 (default 5e-4 as in the paper; the official code used 5e-5).
-    voxel_size : float or None
-        Voxel edge in metres for downsampling (default 5 mm).
-    stride : int
-        Pixel stride when gathering points.
-    outliers : {None, "statistical", "dbscan"}
-        Per-node outlier removal before the test.
-    prune : bool
-        Bounding-box pruning (see :func:`chamfer_edges`).
+    Options (:class:`Chamfer3D.Options`): ``tau`` (m^2; 5e-4 as in the paper,
+    the official code used 5e-5), ``voxel_size`` (metres, None = no
+    downsampling), ``stride`` (pixel stride when gathering points),
+    ``outliers`` (None, ``"statistical"`` or ``"dbscan"``, with
+    ``outlier_k``/``outlier_std_ratio`` and ``dbscan_eps``/``dbscan_min_samples``)
+    and ``prune`` (bounding-box pruning, see :func:`chamfer_edges`).
 
     Examples
     --------
     >>> lab = [np.array([[0, 1]])]
     >>> pts = [np.array([[[0, 0, 0], [0.01, 0, 0]]], dtype=np.float32)]
     >>> g = CorrespondenceGraph(2, node_attr={"area": [1, 1]})
-    >>> Chamfer3DEdgeAdder(voxel_size=None)(g, Evidence(lab, points=pts)).edge_index.tolist()
+    >>> Chamfer3D(Chamfer3D.Options(voxel_size=None, stride=1))(g, Evidence(lab, points=pts)).edge_index.tolist()
     [[0], [1]]
     """
 
-    name = "chamfer_3d"
+    class Options(BaseModel):
+        """Options of ``chamfer_3d``."""
 
-    def __init__(
-        self,
-        tau: float = 5e-4,
-        voxel_size: float | None = 0.005,
-        stride: int = 1,
-        outliers: str | None = None,
-        prune: bool = True,
-        **outlier_kwargs: Any,
-    ) -> None:
-        self.tau = tau
-        self.voxel_size = voxel_size
-        self.stride = stride
-        self.outliers = outliers
-        self.prune = prune
-        self.outlier_kwargs = outlier_kwargs
+        model_config = ConfigDict(extra="forbid")
+        tau: float = Field(5e-4, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
+        voxel_size: float | None = Field(0.005, gt=0, description="metres; None = no downsampling")
+        stride: int = Field(2, ge=1, description="pixel stride when gathering points")
+        outliers: Literal["statistical", "dbscan"] | None = None
+        outlier_k: int = Field(8, ge=1, description="statistical: neighbours per point")
+        outlier_std_ratio: float = Field(2.0, gt=0, description="statistical: standard deviations")
+        dbscan_eps: float = Field(0.02, gt=0, description="dbscan: neighbourhood radius (metres)")
+        dbscan_min_samples: int = Field(5, ge=1)
+        prune: bool = True
+
+    name = "chamfer_3d"
+    requires = frozenset({"points"})
+    reduce = {"distance": "min", "weight": "max"}
+    tags = {"dimension": "3d"}
+    options: Chamfer3D.Options
 
     def point_sets(self, graph: CorrespondenceGraph, evidence: Evidence) -> PointSets:
+        """The cleaned, downsampled point set of every node."""
         if evidence.points is None:
             raise ValueError("chamfer_3d needs world points (Evidence.points)")
-        sets = node_point_sets(
-            evidence.node_labels, evidence.points, graph.num_nodes, stride=self.stride, voxel_size=self.voxel_size
+        o = self.options
+        sets = node_point_sets(evidence.node_labels, evidence.points, graph.num_nodes, stride=o.stride, voxel_size=o.voxel_size)
+        return remove_outliers(
+            sets, o.outliers, k=o.outlier_k, std_ratio=o.outlier_std_ratio, eps=o.dbscan_eps, min_samples=o.dbscan_min_samples
         )
-        return remove_outliers(sets, self.outliers, **self.outlier_kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
-        return chamfer_edges(self.point_sets(graph, evidence), self.tau, prune=self.prune)
+        return chamfer_edges(self.point_sets(graph, evidence), self.options.tau, prune=self.options.prune)
