@@ -124,7 +124,9 @@ def run(
     segmenter, matcher, lifter : name, class or instance, optional
         Default to ``config.backends``.
     features : name, class or instance, optional
-        Feature extractor for a ``dino`` stage (only run when a stage uses it).
+        Feature extractor (default ``config.backends.features``), run only when
+        a configured criterion requires ``features``. Matches, too, are
+        computed only when a criterion requires ``matches``.
     progress : bool
         Show progress bars.
 
@@ -142,14 +144,17 @@ def run(
     t = time.perf_counter()
     masks = compute_masks(scene, segmenter, cfg, progress=progress)
     times["segment"] = time.perf_counter() - t
-    t = time.perf_counter()
-    matches = compute_matches(scene, matcher, cfg, progress=progress)
-    times["match"] = time.perf_counter() - t
-    feats = None
-    if any(a in ("dino", "dino_similarity") for s in cfg.stages for a in s):
+    required = cfg.requires()  # evidence on demand: exactly what the configured criteria read
+    matches: dict[tuple[int, int], Matches] = {}
+    if "matches" in required:
         t = time.perf_counter()
-        fx = _resolve(feature_registry, features or "color", cfg)
-        feats = [fx(v) for v in scene.views]
+        matches = compute_matches(scene, matcher, cfg, progress=progress)
+        times["match"] = time.perf_counter() - t
+    feats = None
+    if "features" in required:
+        t = time.perf_counter()
+        fx = _resolve(feature_registry, features or cfg.backends.features, cfg)
+        feats = [fx(v) for v in _progress(scene.views, "features", progress)]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()
     result = segment(scene, masks, matches, cfg, features=feats)
@@ -157,7 +162,7 @@ def run(
     times["total"] = time.perf_counter() - t0
     result.info["pipeline"] = {
         "segmenter": _name(segmenter, cfg.backends.segmenter),
-        "matcher": _name(matcher, cfg.backends.matcher),
+        "matcher": _name(matcher, cfg.backends.matcher) if "matches" in required else None,
         "lifter": scene.meta["lifter"],
         "timings": times,
     }

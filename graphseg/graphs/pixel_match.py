@@ -274,7 +274,7 @@ class PixelMatch(Criterion):
         consistency_percentile: float | None = Field(None, ge=0, le=100)
 
     name = "pixel_match"
-    requires = frozenset({"matches"})
+    requires = frozenset({"matches", "points"})  # points: for consistency_percentile
     reduce = {"weight": "max", "count": "sum", "ratio": "max"}
     tags = {"dimension": "2d"}
     options: PixelMatch.Options
