@@ -329,7 +329,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"  scene: {info.get('scene', '?')}")
         print(f"  views: {len(result.view_names)} ({', '.join(result.view_names[:8])}{' ...' if len(result.view_names) > 8 else ''})")
         print(f"  objects: {result.num_objects}")
-        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(s) for s in result.config.stages)}")
+        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(s) for s in result.config.stage_names())}")
         for s, g in enumerate(result.graphs):
             print(f"  stage {s}: {g.num_nodes} nodes, {g.num_edges} edges")
         if (p / "metrics.json").exists():

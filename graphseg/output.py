@@ -98,7 +98,7 @@ def write_output(
             "scene": info.get("scene", scene.name),
             "views": len(result.view_names),
             "objects": result.num_objects,
-            "stages": " -> ".join("+".join(s) for s in result.config.stages),
+            "stages": " -> ".join("+".join(s) for s in result.config.stage_names()),
         }
         if result.info.get("pipeline"):
             p = result.info["pipeline"]
