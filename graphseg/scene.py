@@ -276,18 +276,3 @@ class Matches:
 
     def __len__(self) -> int:
         return int(self.xy_i.shape[0])
-
-    def top(self, n: int | None) -> Matches:
-        """The ``n`` most certain matches (all when ``n`` is None or >= M).
-
-        Examples
-        --------
-        >>> m = Matches(np.zeros((3, 2)), np.ones((3, 2)), [0.1, 0.9, 0.5])
-        >>> m.top(2).certainty.tolist()
-        [0.8999999761581421, 0.5]
-        """
-        if n is None or n >= len(self):
-            return self
-        idx = np.argpartition(-self.certainty, n - 1)[:n]
-        idx = idx[np.argsort(-self.certainty[idx], kind="stable")]
-        return Matches(self.xy_i[idx], self.xy_j[idx], self.certainty[idx])

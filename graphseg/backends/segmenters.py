@@ -388,7 +388,6 @@ class OraclePartsSegmenter:
     """EVALUATION ONLY (needs ground-truth instances): each object cut into ``parts`` random pieces."""
 
     name = "oracle-parts"
-    needs_ground_truth = True
 
     def __init__(self, parts: int = 2, seed: int = 0) -> None:
         self.parts = parts

@@ -544,20 +544,6 @@ class CorrespondenceGraph:
         target.edge_index = np.concatenate([target.edge_index, ei], axis=1)
         return target
 
-    def edges_where(self, **equal: Any) -> np.ndarray:
-        """Boolean ``[E]`` selecting edges whose columns equal the given values."""
-        keep = np.ones(self.num_edges, bool)
-        for k, val in equal.items():
-            keep &= self.edge_attr[k] == val
-        return keep
-
-    def subgraph_edges(self, keep: np.ndarray) -> CorrespondenceGraph:
-        """A copy keeping only the edges where ``keep`` (bool ``[E]``) holds."""
-        g = self.copy()
-        g.edge_index = g.edge_index[:, keep]
-        g.edge_attr = {k: v[keep] for k, v in g.edge_attr.items()}
-        return g
-
     # -------------------------------------------------------------- contraction
     def contract(self, contractor: Any = "star", *, rng: Any = None) -> np.ndarray:
         """Cluster vector ``[N]`` of this graph's components (see :mod:`.contract`)."""
