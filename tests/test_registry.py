@@ -6,7 +6,6 @@ import pytest
 from graphseg import registry as regmod
 from graphseg.graphs import contractors, edge_adders
 from graphseg.graphs.pixel_match import PixelMatch
-from graphseg.testing.plugins import refresh_registries, write_dist_info
 from graphseg.registry import (
     MissingDependencyError,
     PluginLoadWarning,
@@ -14,6 +13,7 @@ from graphseg.registry import (
     Registry,
     require,
 )
+from graphseg.testing.plugins import refresh_registries, write_dist_info
 
 
 def test_builtins_by_name_class_instance():
@@ -72,8 +72,9 @@ def test_legacy_plain_callable_runs_as_a_stage(loopback_dist):
 
 def test_test_plugins_are_not_in_the_package_metadata():
     """pyproject declares no test-only entry points (they would show in users' choices)."""
-    import tomllib
     from pathlib import Path
+
+    import tomllib
 
     meta = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
     eps = meta["project"].get("entry-points", {})

@@ -29,7 +29,14 @@ from .contract import (
     scipy_contraction,
     union_find_contraction,
 )
-from .criterion import REDUCTIONS, REQUIRES, Criterion, CriterionOptionsError, build_criterion, criterion_info
+from .criterion import (
+    REDUCTIONS,
+    REQUIRES,
+    Criterion,
+    CriterionOptionsError,
+    build_criterion,
+    criterion_info,
+)
 from .evidence import Contractor, EdgeSet, Evidence
 from .features import FeatureSimilarity, feature_similarity_edges, node_mean_features
 from .graph import (

@@ -29,8 +29,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from .criterion import Criterion
 from .coalesce import combine_keys, group_by_key
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 

@@ -111,7 +111,9 @@ class Criterion:
 
     def __init__(self, options: BaseModel | None = None, /, **kwargs: Any) -> None:
         if options is None:
-            options = validate_options(self.Options, kwargs, label=self.name or type(self).__name__)
+            checked = validate_options(self.Options, kwargs, label=self.name or type(self).__name__)
+            assert isinstance(checked, BaseModel)  # Options is always a model here
+            options = checked
         elif kwargs:
             raise TypeError(f"{self.name}: give options either as an Options instance or as keywords, not both")
         elif not isinstance(options, self.Options):

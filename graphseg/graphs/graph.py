@@ -35,9 +35,9 @@ CorrespondenceGraph(level='mask', num_nodes=3, num_edges=1, node_attr=[], edge_a
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-import warnings
 from typing import Any
 
 import numpy as np
