@@ -138,7 +138,7 @@ def node_point_sets(
     if voxel_size is not None and voxel_size > 0 and node.size:
         ijk = np.floor((P - P.min(0)) / voxel_size).astype(np.int64)
         ext = ijk.max(0) + 1
-        grouped = group_by_key(combine_keys([node, ijk[:, 0], ijk[:, 1], ijk[:, 2]], [num_nodes, *ext.tolist()]))
+        grouped = group_by_key(combine_keys([node, ijk[:, 0], ijk[:, 1], ijk[:, 2]], [num_nodes, *ext.tolist()]), stable=False)
         grp, g = grouped.groups, grouped.num_groups  # groups ordered by (node, voxel)
         cnt = grouped.counts.astype(np.float64)
         P = np.stack([np.bincount(grp, weights=P[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]

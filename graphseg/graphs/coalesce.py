@@ -106,7 +106,7 @@ class Groups:
         return int(self.keys.size)
 
 
-def group_by_key(key: Any, num_keys: int | None = None) -> Groups:
+def group_by_key(key: Any, num_keys: int | None = None, *, stable: bool = True) -> Groups:
     """Group rows by an int64 key (from :func:`combine_keys`).
 
     Parameters
@@ -115,6 +115,9 @@ def group_by_key(key: Any, num_keys: int | None = None) -> Groups:
     num_keys : int, optional
         Upper bound of the keys; when small (``<= max(4 M, 65536)``) a dense
         ``bincount`` replaces the sort.
+    stable : bool, keyword-only
+        With False the sort need not be stable: ``first`` is then some row of
+        each group, not necessarily the first (faster when only sums matter).
 
     Returns
     -------
@@ -146,7 +149,7 @@ def group_by_key(key: Any, num_keys: int | None = None) -> Groups:
         first = np.full(keys.size, m, np.int64)
         np.minimum.at(first, groups, np.arange(m, dtype=np.int64))
         return Groups(keys.astype(np.int64), groups, first, cnt[keys].astype(np.int64))
-    order = np.argsort(k, kind="stable")
+    order = np.argsort(k, kind="stable" if stable else "quicksort")
     sk = k[order]
     new = np.r_[True, sk[1:] != sk[:-1]]
     starts = np.flatnonzero(new)
