@@ -27,10 +27,10 @@ from _common import peak_rss_mb, print_table, write_json  # noqa: E402
 
 from graphseg.config import Config  # noqa: E402
 from graphseg.graphs import (  # noqa: E402
-    Chamfer3DEdgeAdder,
+    Chamfer3D,
     CorrespondenceGraph,
     Evidence,
-    PixelMatchEdgeAdder,
+    PixelMatch,
     coarsen,
     randomized_star_contraction,
 )
@@ -77,7 +77,7 @@ def run_steps(scene, masks, matches, cfg):
     t["node_table"] = time.perf_counter() - s
     s = time.perf_counter()
     ev = Evidence.for_graph(g, matches=matches, points=points)
-    es = PixelMatchEdgeAdder(**cfg.options_for("pixel_match"))(g, ev)
+    es = PixelMatch(**cfg.criterion_options("pixel_match"))(g, ev)
     g2 = g.add_edges(es.edge_index, dict(es.edge_attr))
     t["pixel_match_edges"] = time.perf_counter() - s
     s = time.perf_counter()
@@ -87,14 +87,14 @@ def run_steps(scene, masks, matches, cfg):
     sup = coarsen(g2, cl)
     t["coarsen_2d"] = time.perf_counter() - s
     s = time.perf_counter()
-    adder = Chamfer3DEdgeAdder(**cfg.options_for("chamfer_3d"))
+    adder = Chamfer3D(**cfg.criterion_options("chamfer_3d"))
     ev3 = Evidence.for_graph(sup, points=points)
     sets = adder.point_sets(sup, ev3)
     t["chamfer_gather_voxel"] = time.perf_counter() - s
     s = time.perf_counter()
     from graphseg.graphs import chamfer_edges
 
-    es3 = chamfer_edges(sets, adder.tau, prune=adder.prune)
+    es3 = chamfer_edges(sets, adder.options.tau, prune=adder.options.prune)
     t["chamfer_edges"] = time.perf_counter() - s
     s = time.perf_counter()
     sup2 = sup.add_edges(es3.edge_index, dict(es3.edge_attr))

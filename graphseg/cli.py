@@ -436,7 +436,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(_printable(f"  scene: {info.get('scene', '?')}"))
         print(_printable(f"  views: {len(result.view_names)} ({', '.join(result.view_names[:8])}{' ...' if len(result.view_names) > 8 else ''})"))
         print(f"  objects: {result.num_objects}")
-        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(str(a) for a in s) for s in result.config.stages)}")
+        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(s) for s in result.config.stage_names())}")
         for s, g in enumerate(result.graphs):
             print(f"  stage {s}: {g.num_nodes} nodes, {g.num_edges} edges")
         mj = p / "metrics.json"

@@ -3,17 +3,37 @@
 A :class:`Config` is a pydantic model, so it validates on construction, rejects
 unknown keys (typos fail loudly), and loads from / saves to YAML or JSON.
 
+``stages`` is a list of stages; each stage is a list of edge criteria, given by
+name or as ``{name: {options}}``. Options are validated against the installed
+criterion's ``Options`` model when the config is built, so a misspelt option or
+an unknown criterion fails at once, naming the key and listing the valid ones::
+
+    stages:
+      - [pixel_match]
+      - [{chamfer_3d: {tau: 5.0e-5}}, {my_criterion: {k: 3}}]
+    contractor: star            # or {name: {options}}
+
+Old config files with top-level ``pixel_match:``, ``chamfer_3d:``, ``dino:`` or
+``adder_options:`` sections still load: each section's options move into the
+stage entries of that criterion (:func:`migrate_config`).
+
 Examples
 --------
 >>> cfg = Config()
->>> cfg.stages
+>>> cfg.stage_names()
 [['pixel_match'], ['chamfer_3d']]
->>> Config.minus().stages          # GraphSeg-minus: no 3D stage
+>>> Config.minus().stage_names()          # GraphSeg-minus: no 3D stage
 [['pixel_match']]
->>> cfg.chamfer_3d.tau
+>>> cfg.criterion_options("chamfer_3d")["tau"]
 0.0005
->>> Config.preset("rgbd").chamfer_3d.tau   # measured preset for metric RGB-D input
+>>> Config.preset("rgbd").criterion_options("chamfer_3d")["tau"]   # measured preset for metric RGB-D input
 5e-05
+>>> Config(stages=[["pixel_match"], [{"chamfer_3d": {"taus": 1}}]])
+Traceback (most recent call last):
+...
+pydantic_core._pydantic_core.ValidationError: 1 validation error for Config
+stages.1.0
+  chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
 """
 
 from __future__ import annotations
@@ -21,18 +41,26 @@ from __future__ import annotations
 import json
 from os import PathLike
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
 
 __all__ = [
     "Config",
     "BackgroundConfig",
     "MaskConfig",
     "PairConfig",
-    "PixelMatchConfig",
-    "Chamfer3DConfig",
-    "DinoConfig",
+    "CriterionSpec",
+    "ContractorSpec",
+    "migrate_config",
     "OutputConfig",
     "BackendConfig",
     "PRESETS",
@@ -88,33 +116,6 @@ class PairConfig(_Model):
     translation_scale: float = Field(1.0, gt=0)
 
 
-class PixelMatchConfig(_Model):
-    """The ``pixel_match`` edge adder (2D stage)."""
-
-    tau: float | None = Field(None, ge=0, description="absolute ratio threshold; None: percentile")
-    percentile: float = Field(78.0, ge=0, le=100)
-    normalization: Literal["area", "hits", "pair_hits"] = "area"
-    min_matches: int = Field(3, ge=1, description="pairs sharing fewer matches get no edge and do not count toward the percentile (1 = the paper's rule)")
-    consistency_percentile: float | None = Field(None, ge=0, le=100)
-
-
-class Chamfer3DConfig(_Model):
-    """The ``chamfer_3d`` edge adder (3D stage)."""
-
-    tau: float = Field(5e-4, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
-    voxel_size: float | None = Field(0.005, gt=0, description="metres; None = no downsampling")
-    stride: int = Field(2, ge=1, description="pixel stride when gathering points")
-    outliers: Literal["statistical", "dbscan"] | None = None
-    prune: bool = True
-
-
-class DinoConfig(_Model):
-    """The ``dino`` feature-similarity edge adder (optional)."""
-
-    threshold: float = Field(0.8, ge=-1, le=1)
-    cross_view_only: bool = False
-
-
 class OutputConfig(_Model):
     """What the result keeps."""
 
@@ -129,15 +130,188 @@ class BackendConfig(_Model):
     matcher: str = "reprojection"
     lifter: str = "rgbd"
     num_matches: int | None = Field(10_000, ge=1, description="matches kept per pair, most certain first")
+    features: str = Field("color", description="feature extractor, run only when a criterion requires 'features'")
     options: dict[str, dict[str, Any]] = Field(default_factory=dict, description="constructor options by backend name")
 
 
-#: Named configurations for :meth:`Config.preset`.
+def _split_spec(value: Any, what: str) -> tuple[str, Any]:
+    """``name`` or ``{name: options}`` (or a spec) -> ``(name, options)``."""
+    if isinstance(value, _PluginSpec):
+        return value.name, dict(value.options)
+    if isinstance(value, str):
+        return value, {}
+    if isinstance(value, dict) and len(value) == 1:
+        ((name, opts),) = value.items()
+        if isinstance(name, str) and (opts is None or isinstance(opts, dict)):
+            return name, dict(opts or {})
+    raise PydanticCustomError(
+        "plugin_spec",
+        "expected a {what} name or {form} with one key (got {got})",
+        {"what": what, "form": "{name: {options}}", "got": repr(value)[:80]},
+    )
+
+
+class _PluginSpec(BaseModel):
+    """A plugin by name with its validated options; written as ``name`` or ``{name: {options}}``."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    name: str
+    options: dict[str, Any] = Field(default_factory=dict)
+
+    _what: ClassVar[str] = "plugin"
+
+    @classmethod
+    def _registry(cls) -> Any:  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    @model_validator(mode="before")
+    @classmethod
+    def _parse(cls, value: Any) -> Any:
+        from .graphs.criterion import CriterionOptionsError, criterion_info, validate_options
+        from .registry import PluginNotFoundError
+
+        name, opts = _split_spec(value, cls._what)
+        try:
+            plugin = cls._registry().get(name)
+        except PluginNotFoundError as err:
+            raise PydanticCustomError("unknown_plugin", "{msg}", {"msg": str(err)}) from None
+        try:
+            info = criterion_info(plugin, name)
+            checked = validate_options(info.Options, opts, label=name)
+        except (CriterionOptionsError, ValueError) as err:
+            raise PydanticCustomError("criterion_options", "{msg}", {"msg": str(err)}) from None
+        full = checked.model_dump(mode="json") if isinstance(checked, BaseModel) else checked
+        return {"name": name, "options": full}
+
+    @model_serializer
+    def _dump(self) -> Any:
+        return {self.name: dict(self.options)} if self.options else self.name
+
+    def plugin(self) -> Any:
+        """The registered class (or object)."""
+        return self._registry().get(self.name)
+
+    def build(self) -> Any:
+        """A new instance, built from the validated options."""
+        from .graphs.criterion import build_criterion
+
+        return build_criterion(self.plugin(), self.options, name=self.name)
+
+
+class CriterionSpec(_PluginSpec):
+    """One edge criterion of a stage: ``pixel_match`` or ``{chamfer_3d: {tau: 5.0e-5}}``.
+
+    ``options`` holds every option (defaults filled in), validated against the
+    criterion's ``Options`` model.
+
+    Examples
+    --------
+    >>> spec = CriterionSpec.model_validate({"pixel_match": {"tau": 0.3}})
+    >>> spec.name, spec.options["tau"], spec.options["percentile"]
+    ('pixel_match', 0.3, 78.0)
+    >>> spec.info().dimension
+    '2d'
+    """
+
+    _what: ClassVar[str] = "criterion"
+
+    @classmethod
+    def _registry(cls) -> Any:
+        from .graphs.registry import edge_adders
+
+        return edge_adders
+
+    def info(self) -> Any:
+        """The criterion's declarations (:class:`graphseg.graphs.criterion.CriterionInfo`)."""
+        from .graphs.criterion import criterion_info
+
+        return criterion_info(self.plugin(), self.name)
+
+
+class ContractorSpec(_PluginSpec):
+    """The contractor: ``star`` or ``{name: {options}}`` (validated against its ``Options``).
+
+    Examples
+    --------
+    >>> ContractorSpec.model_validate("union_find").model_dump()
+    'union_find'
+    """
+
+    _what: ClassVar[str] = "contractor"
+
+    @classmethod
+    def _registry(cls) -> Any:
+        from .graphs.registry import contractors
+
+        return contractors
+
+
+#: Old top-level sections and the criterion whose stage entries receive them.
+LEGACY_SECTIONS: dict[str, str] = {"pixel_match": "pixel_match", "chamfer_3d": "chamfer_3d", "dino": "dino"}
+
+
+def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
+    """Move old-style option sections into the stage entries (returns a new dict).
+
+    ``pixel_match: {...}``, ``chamfer_3d: {...}``, ``dino: {...}`` and
+    ``adder_options: {name: {...}}`` become the options of every stage entry of
+    that criterion, overriding options written in the entry (so
+    ``Config.preset("rgbd", pixel_match={"tau": 0.5})`` overrides the preset). Sections of
+    criteria that no stage uses are dropped (they had no effect before either).
+    The old stage-name alias ``dino_similarity`` becomes ``dino``.
+
+    Examples
+    --------
+    >>> migrate_config({"pixel_match": {"tau": 0.3}, "stages": [["pixel_match"], ["chamfer_3d"]]})
+    {'stages': [[{'pixel_match': {'tau': 0.3}}], ['chamfer_3d']]}
+    """
+    sections: dict[str, dict[str, Any]] = {}
+    out = dict(data)
+    for key, crit in LEGACY_SECTIONS.items():
+        if isinstance(out.get(key), dict):
+            sections[crit] = dict(out.pop(key))
+    legacy = out.pop("adder_options", None)
+    if isinstance(legacy, dict):
+        for name, opts in legacy.items():
+            if isinstance(opts, dict):
+                sections[name] = {**sections.get(name, {}), **opts}
+    stages = out.get("stages", _DEFAULT_STAGES)
+    if not isinstance(stages, list):
+        return out
+    changed = False
+    new_stages: list[Any] = []
+    for stage in stages:
+        if not isinstance(stage, list):
+            new_stages.append(stage)
+            continue
+        entries = []
+        for entry in stage:
+            name, opts = (entry, {}) if isinstance(entry, str) else (None, None)
+            if isinstance(entry, dict) and len(entry) == 1:
+                ((name, opts),) = entry.items()
+            if name == "dino_similarity":
+                name, changed = "dino", True
+                entry = {name: opts} if opts else name
+            if isinstance(name, str) and name in sections and isinstance(opts, dict | None):
+                entry = {name: {**(opts or {}), **sections[name]}}
+                changed = True
+            entries.append(entry)
+        new_stages.append(entries)
+    if changed:
+        out["stages"] = new_stages
+    return out
+
+
+_DEFAULT_STAGES: list[list[Any]] = [["pixel_match"], ["chamfer_3d"]]
+
+#: Named configurations for :meth:`Config.preset`, written like a config file.
 PRESETS: dict[str, dict[str, Any]] = {
     "paper": {},
     "rgbd": {
-        "pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5},
-        "chamfer_3d": {"tau": 5e-5},
+        "stages": [
+            [{"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}}],
+            [{"chamfer_3d": {"tau": 5e-5}}],
+        ],
         "background": {"max_overlap": 0.5},
     },
 }
@@ -146,29 +320,41 @@ PRESETS: dict[str, dict[str, Any]] = {
 class Config(_Model):
     """Everything a GraphSeg run needs besides its inputs.
 
-    ``stages`` lists, per stage, the edge adders that run before that stage's
-    contraction. Built-in adders take their options from the sections below;
-    other (plugin) adders from ``adder_options[name]``.
+    ``stages`` lists, per stage, the edge criteria that run before that
+    stage's contraction, each with its validated options (see the module
+    docstring). ``contractor`` is the contractor of every stage.
     """
 
     background: BackgroundConfig = Field(default_factory=BackgroundConfig)
     masks: MaskConfig = Field(default_factory=MaskConfig)
     pairs: PairConfig = Field(default_factory=PairConfig)
-    pixel_match: PixelMatchConfig = Field(default_factory=PixelMatchConfig)
-    chamfer_3d: Chamfer3DConfig = Field(default_factory=Chamfer3DConfig)
-    dino: DinoConfig = Field(default_factory=DinoConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
     backends: BackendConfig = Field(default_factory=BackendConfig)
-    stages: list[list[str]] = Field(default_factory=lambda: [["pixel_match"], ["chamfer_3d"]])
-    contractor: str = "star"
+    stages: list[list[CriterionSpec]] = Field(default_factory=lambda: [[CriterionSpec.model_validate(n) for n in s] for s in _DEFAULT_STAGES])
+    contractor: ContractorSpec = Field(default_factory=lambda: ContractorSpec.model_validate("star"))
     seed: int | None = Field(0, ge=0, description="random seed (None: fresh entropy)")
-    adder_options: dict[str, dict[str, Any]] = Field(default_factory=dict)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _migrate(cls, data: Any) -> Any:
+        if isinstance(data, dict) and any(k in data for k in (*LEGACY_SECTIONS, "adder_options")):
+            return migrate_config(data)
+        return data
 
     @field_validator("stages")
     @classmethod
-    def _stages_not_empty(cls, v: list[list[str]]) -> list[list[str]]:
+    def _stages_not_empty(cls, v: list[list[CriterionSpec]]) -> list[list[CriterionSpec]]:
         if not v or any(not s for s in v):
-            raise ValueError("stages must be a non-empty list of non-empty adder lists")
+            raise ValueError("stages must be a non-empty list of non-empty criterion lists")
+        seen: dict[str, tuple[str, str]] = {}
+        for stage in v:
+            for spec in stage:
+                for col, how in spec.info().reduce.items():
+                    if col in seen and seen[col][1] != how:
+                        raise ValueError(
+                            f"criteria {seen[col][0]!r} and {spec.name!r} merge edge column {col!r} differently ({seen[col][1]} vs {how})"
+                        )
+                    seen.setdefault(col, (spec.name, how))
         return v
 
     @classmethod
@@ -180,7 +366,7 @@ class Config(_Model):
         per-pair overlap fraction (``pair_hits``) >= 0.3 for 2D edges, the
         official code's tau_3D = 5e-5 m^2, and masks dropped only when at least
         half of them is background (background pixels are cleared from every
-        mask anyway).
+        mask anyway). Mapping overrides merge into the preset's sections.
         """
         if name not in PRESETS:
             raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
@@ -199,16 +385,40 @@ class Config(_Model):
         return cls(**kwargs).without_3d()
 
     def without_3d(self) -> Config:
-        """A copy with every ``chamfer_3d`` adder removed (stages left empty are dropped)."""
-        stages = [[a for a in s if a != "chamfer_3d"] for s in self.stages]
-        return self.model_copy(update={"stages": [s for s in stages if s] or [["pixel_match"]]})
+        """A copy without criteria tagged ``dimension: "3d"`` (stages left empty are dropped)."""
+        stages = [[c for c in s if c.info().dimension != "3d"] for s in self.stages]
+        kept = [s for s in stages if s] or [[CriterionSpec.model_validate("pixel_match")]]
+        return self.model_copy(update={"stages": kept})
 
-    def options_for(self, adder: str) -> dict[str, Any]:
-        """Constructor options of the named edge adder."""
-        builtin = {"pixel_match": self.pixel_match, "chamfer_3d": self.chamfer_3d, "dino": self.dino, "dino_similarity": self.dino}
-        if adder in builtin:
-            return builtin[adder].model_dump()
-        return dict(self.adder_options.get(adder, {}))
+    def stage_names(self) -> list[list[str]]:
+        """The criterion names of every stage."""
+        return [[c.name for c in s] for s in self.stages]
+
+    def criteria(self) -> list[CriterionSpec]:
+        """Every criterion of every stage, in order."""
+        return [c for s in self.stages for c in s]
+
+    def criterion_options(self, name: str) -> dict[str, Any]:
+        """The options of the first stage entry named ``name`` (KeyError if none)."""
+        for c in self.criteria():
+            if c.name == name:
+                return dict(c.options)
+        raise KeyError(f"no stage uses criterion {name!r}; stages: {self.stage_names()}")
+
+    def requires(self) -> frozenset[str]:
+        """The evidence the configured criteria need (union of their ``requires``)."""
+        out: set[str] = set()
+        for c in self.criteria():
+            out |= c.info().requires
+        return frozenset(out)
+
+    def edge_reduce(self) -> dict[str, str]:
+        """Edge column -> reduction, from the configured criteria's ``reduce``."""
+        out: dict[str, str] = {}
+        for c in self.criteria():
+            for col, how in c.info().reduce.items():
+                out.setdefault(col, how)
+        return out
 
     # ------------------------------------------------------------------ files
     def to_dict(self) -> dict[str, Any]:
@@ -245,7 +455,7 @@ class Config(_Model):
         >>> with tempfile.TemporaryDirectory() as d:
         ...     p = Path(d) / "c.yaml"
         ...     _ = p.write_text("seed: 3\n")
-        ...     Config.load(p, base=Config.preset("rgbd")).chamfer_3d.tau
+        ...     Config.load(p, base=Config.preset("rgbd")).criterion_options("chamfer_3d")["tau"]
         5e-05
         """
         p = Path(path)

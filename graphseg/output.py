@@ -408,7 +408,7 @@ def fill_output(
         "scene": info.get("scene", scene.name),
         "views": len(result.view_names),
         "objects": result.num_objects,
-        "stages": " -> ".join("+".join(str(a) for a in s) for s in result.config.stages),
+        "stages": " -> ".join("+".join(s) for s in result.config.stage_names()),
     }
     if result.info.get("pipeline"):
         p = result.info["pipeline"]

@@ -159,9 +159,14 @@ def prepare(
     t = time.perf_counter()
     masks = _given_masks(scene, masks) if masks is not None else compute_masks(scene, segmenter, cfg, progress=progress)
     times["segment"] = time.perf_counter() - t
-    t = time.perf_counter()
-    matches = _given_matches(scene, matches) if matches is not None else compute_matches(scene, matcher, cfg, progress=progress)
-    times["match"] = time.perf_counter() - t
+    if matches is not None:
+        matches = _given_matches(scene, matches)
+    elif "matches" in cfg.requires():  # evidence on demand: matches only when a criterion reads them
+        t = time.perf_counter()
+        matches = compute_matches(scene, matcher, cfg, progress=progress)
+        times["match"] = time.perf_counter() - t
+    else:
+        matches = {}
     return scene, masks, matches, times
 
 
@@ -187,7 +192,9 @@ def run(
     segmenter, matcher, lifter : name, class or instance, optional
         Default to ``config.backends``.
     features : name, class or instance, optional
-        Feature extractor for a ``dino`` stage (only run when a stage uses it).
+        Feature extractor (default ``config.backends.features``), run only when
+        a configured criterion requires ``features``. Matches, too, are
+        computed only when a criterion requires ``matches``.
     progress : bool
         Show progress bars.
     masks, matches, points : optional
@@ -208,10 +215,10 @@ def run(
     )
     times.update(step_times)
     feats = None
-    if any(a in ("dino", "dino_similarity") for s in cfg.stages for a in s):
+    if "features" in cfg.requires():
         t = time.perf_counter()
-        fx = _resolve(feature_registry, features or "color", cfg)
-        feats = [fx(v) for v in scene.views]
+        fx = _resolve(feature_registry, features or cfg.backends.features, cfg)
+        feats = [fx(v) for v in _progress(scene.views, "features", progress)]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()
     result = segment(scene, masks, matches, cfg, features=feats)
@@ -219,7 +226,7 @@ def run(
     times["total"] = time.perf_counter() - t0
     result.info["pipeline"] = {
         "segmenter": "given" if masks_given else _name(segmenter, cfg.backends.segmenter),
-        "matcher": "given" if matches_given else _name(matcher, cfg.backends.matcher),
+        "matcher": "given" if matches_given else (_name(matcher, cfg.backends.matcher) if "matches" in cfg.requires() else None),
         "lifter": scene.meta["lifter"],
         "timings": times,
     }

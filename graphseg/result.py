@@ -9,6 +9,8 @@ Examples
 (2, dtype('int32'))
 >>> r.object_of(0, 0) in (1, 2)
 True
+>>> [sorted(set(g.node_attr["object"].tolist())) for g in r.graphs]
+[[1, 2], [1, 2]]
 """
 
 from __future__ import annotations
@@ -39,8 +41,11 @@ class Result:
     object_points : PointSets
         CSR per-object world points ``[P, 3]`` and colours (node ``k`` = object ``k + 1``).
     graphs : list of CorrespondenceGraph
-        One per stage, with that stage's edges (``graph_2d`` = stage 0, the mask
-        graph; ``graph_3d`` = stage 1, the super graph after 2D contraction).
+        One per stage (any number), with that stage's edges: ``graphs[0]`` is
+        the mask graph, ``graphs[k]`` the super graph after stage ``k - 1``'s
+        contraction. Every node carries its final object id in the node column
+        ``object`` (``1..K``). ``graph_2d`` / ``graph_3d`` are ``graphs[0]`` /
+        ``graphs[1]``.
     config : Config
     view_names : list of str
     background : list of bool ``[H, W]`` or None
@@ -64,11 +69,17 @@ class Result:
         return self.object_points.num_nodes
 
     @property
+    def num_stages(self) -> int:
+        return len(self.graphs)
+
+    @property
     def graph_2d(self) -> CorrespondenceGraph:
+        """``graphs[0]``: the mask graph with the first stage's edges."""
         return self.graphs[0]
 
     @property
     def graph_3d(self) -> CorrespondenceGraph | None:
+        """``graphs[1]`` (None with a single stage)."""
         return self.graphs[1] if len(self.graphs) > 1 else None
 
     def _view_index(self, view: int | str) -> int:

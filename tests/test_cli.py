@@ -172,7 +172,7 @@ def test_empty_folder_unknown_view_missing_path_unwritable_output(scene_dir, tmp
     bad_cfg = tmp_path / "bad.yaml"
     bad_cfg.write_text("pixel_match:\n  percentile: 900\n")
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o5", "--config", bad_cfg], capsys)
-    assert code == 2 and "pixel_match.percentile" in err and str(bad_cfg) in err
+    assert code == 2 and "pixel_match: option 'percentile'" in err and str(bad_cfg) in err
     code, _, err = run_cli(["eval", tmp_path / "nothing"], capsys)
     assert code == 2 and "not a graphseg output folder" in err
 

@@ -1,45 +1,138 @@
+import numpy as np
 import pytest
-from pydantic import ValidationError
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from graphseg.config import Config
+from graphseg.config import Config, CriterionSpec, migrate_config
+from graphseg.graphs import Criterion, EdgeSet, edge_adders
+
+
+class _Near3D(Criterion):
+    """A 3D criterion under another name: --no-3d must drop it by its tag."""
+
+    name = "near_3d_test"
+
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        k: int = Field(3, ge=1)
+
+    requires = frozenset({"points"})
+    reduce = {"weight": "max"}
+    tags = {"dimension": "3d"}
+
+    def __call__(self, graph, evidence):
+        return EdgeSet(np.zeros((2, 0), np.int64))
+
+
+@pytest.fixture
+def near3d():
+    edge_adders.register("near_3d_test", _Near3D)
+    yield _Near3D
+    edge_adders.unregister("near_3d_test")
 
 
 def test_defaults_follow_the_paper():
     c = Config()
-    assert c.pixel_match.percentile == 78 and c.pixel_match.tau is None
-    assert c.chamfer_3d.tau == 5e-4
+    assert c.criterion_options("pixel_match")["percentile"] == 78 and c.criterion_options("pixel_match")["tau"] is None
+    assert c.criterion_options("chamfer_3d")["tau"] == 5e-4
+    assert c.criterion_options("chamfer_3d")["stride"] == 2  # one source of defaults: Chamfer3D.Options
     assert c.background.max_overlap == 0.09
     assert c.pairs.max_rotation == 1.2
-    assert c.contractor == "star"
+    assert c.contractor.name == "star" and c.to_dict()["contractor"] == "star"
+    assert c.stage_names() == [["pixel_match"], ["chamfer_3d"]]
 
 
 @pytest.mark.parametrize("suffix", [".yaml", ".json"])
-def test_save_load_roundtrip(tmp_path, suffix):
-    c = Config(seed=3, contractor="union_find", chamfer_3d={"tau": 5e-5, "outliers": "dbscan"})
+def test_save_load_roundtrip(tmp_path, suffix, near3d):
+    c = Config(
+        seed=3,
+        contractor="union_find",
+        stages=[["pixel_match"], [{"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan"}}], [{"near_3d_test": {"k": 5}}]],
+    )
     c.save(tmp_path / f"c{suffix}")
-    assert Config.load(tmp_path / f"c{suffix}") == c
+    back = Config.load(tmp_path / f"c{suffix}")
+    assert back == c and back.to_dict() == c.to_dict()
+    assert back.criterion_options("near_3d_test") == {"k": 5}
 
 
-def test_partial_file_and_unknown_keys(tmp_path):
-    (tmp_path / "p.yaml").write_text("seed: 5\npixel_match:\n  percentile: 50\n")
+def test_presets_are_written_in_the_stage_form():
+    r = Config.preset("rgbd")
+    assert r.criterion_options("pixel_match")["normalization"] == "pair_hits"
+    assert r.criterion_options("chamfer_3d")["tau"] == 5e-5
+    assert Config.preset("rgbd", pixel_match={"tau": 0.5}).criterion_options("pixel_match")["tau"] == 0.5
+    assert Config.preset("paper") == Config()
+
+
+def test_string_stages_still_work():
+    c = Config(stages=[["pixel_match"], ["chamfer_3d"]])
+    assert c == Config()
+    assert isinstance(c.stages[0][0], CriterionSpec)
+
+
+def test_old_style_files_migrate(tmp_path):
+    (tmp_path / "p.yaml").write_text("seed: 5\npixel_match:\n  percentile: 50\nchamfer_3d:\n  tau: 5.0e-5\nstages: [[pixel_match], [chamfer_3d]]\n")
     c = Config.load(tmp_path / "p.yaml")
-    assert c.seed == 5 and c.pixel_match.percentile == 50 and c.chamfer_3d.tau == 5e-4
+    assert c.seed == 5 and c.criterion_options("pixel_match")["percentile"] == 50
+    assert c.criterion_options("chamfer_3d")["tau"] == 5e-5
+    assert "pixel_match" not in c.to_dict()  # saved in the new form only
+    (tmp_path / "ao.yaml").write_text("adder_options:\n  dino: {threshold: 0.5}\nstages: [[pixel_match, dino_similarity]]\n")
+    c = Config.load(tmp_path / "ao.yaml")
+    assert c.stage_names() == [["pixel_match", "dino"]] and c.criterion_options("dino")["threshold"] == 0.5
+    assert migrate_config({"dino": {"threshold": 0.1}}) == {}  # no stage uses it: dropped, as it had no effect
+
+
+def test_unknown_keys_criteria_and_options_name_the_key(tmp_path):
     (tmp_path / "bad.yaml").write_text("pixel_mach:\n  percentile: 50\n")
     with pytest.raises(ValidationError, match="pixel_mach"):
         Config.load(tmp_path / "bad.yaml")
     (tmp_path / "list.yaml").write_text("- 1\n")
     with pytest.raises(ValueError, match="mapping"):
         Config.load(tmp_path / "list.yaml")
-
-
-def test_minus_and_options():
-    m = Config.minus()
-    assert m.stages == [["pixel_match"]]
-    c = Config(stages=[["pixel_match", "dino"], ["chamfer_3d"]]).without_3d()
-    assert c.stages == [["pixel_match", "dino"]]
-    assert Config().options_for("chamfer_3d")["tau"] == 5e-4
-    assert Config(adder_options={"mine": {"k": 1}}).options_for("mine") == {"k": 1}
+    with pytest.raises(ValidationError, match=r"unknown edge criterion 'chamfer3d'; installed choices: pixel_match, chamfer_3d"):
+        Config(stages=[["chamfer3d"]])
+    with pytest.raises(ValidationError, match=r"chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size"):
+        Config(stages=[[{"chamfer_3d": {"taus": 1}}]])
+    with pytest.raises(ValidationError, match=r"pixel_match: option 'percentile'"):
+        Config(pixel_match={"percentile": 120})
+    with pytest.raises(ValidationError, match=r"unknown contractor 'stra'"):
+        Config(contractor="stra")
+    with pytest.raises(ValidationError, match=r"\{name: \{options\}\}"):
+        Config(stages=[[{"pixel_match": {}, "chamfer_3d": {}}]])
     with pytest.raises(ValidationError):
         Config(stages=[])
-    with pytest.raises(ValidationError):
-        Config(pixel_match={"percentile": 120})
+
+
+def test_without_3d_acts_on_the_dimension_tag(near3d):
+    c = Config(stages=[["pixel_match", "dino"], ["chamfer_3d"], [{"near_3d_test": {"k": 2}}]])
+    assert c.without_3d().stage_names() == [["pixel_match", "dino"]]
+    assert Config.minus().stage_names() == [["pixel_match"]]
+    assert Config(stages=[["chamfer_3d"]]).without_3d().stage_names() == [["pixel_match"]]
+
+
+def test_requires_and_reduce_come_from_the_criteria():
+    assert Config().requires() == {"matches", "points"}
+    assert "features" in Config(stages=[["pixel_match", "dino"]]).requires()
+    assert Config().edge_reduce()["distance"] == "min"
+
+
+def test_conflicting_reductions_are_refused():
+    class Summer(Criterion):
+        name = "summer_test"
+        reduce = {"weight": "sum"}
+
+        def __call__(self, graph, evidence):  # pragma: no cover - never called
+            raise AssertionError
+
+    edge_adders.register("summer_test", Summer)
+    try:
+        with pytest.raises(ValidationError, match="merge edge column 'weight' differently"):
+            Config(stages=[["pixel_match", "summer_test"]])
+    finally:
+        edge_adders.unregister("summer_test")
+
+
+def test_yaml_written_by_hand_in_the_new_form(tmp_path):
+    (tmp_path / "c.yaml").write_text("stages:\n  - [pixel_match]\n  - [{chamfer_3d: {tau: 5.0e-5}}]\ncontractor: {union_find: {}}\n")
+    c = Config.load(tmp_path / "c.yaml")
+    assert c.criterion_options("chamfer_3d")["tau"] == 5e-5 and c.contractor.name == "union_find"
+    assert yaml.safe_load(yaml.safe_dump(c.to_dict())) == c.to_dict()

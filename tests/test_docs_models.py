@@ -14,7 +14,7 @@ def test_paper_config_file_validates():
     section = (DOCS / "models.md").read_text().split("## The paper's configuration as one config file")[1]
     block = re.findall(r"```yaml\n(.*?)```", section, flags=re.S)[0]
     cfg = Config.model_validate(yaml.safe_load(block))
-    assert cfg.backends.lifter == "dust3r" and cfg.chamfer_3d.tau == 5e-4 and cfg.background.max_overlap == 0.09
+    assert cfg.backends.lifter == "dust3r" and cfg.criterion_options("chamfer_3d")["tau"] == 5e-4 and cfg.criterion_options("pixel_match")["min_matches"] == 1 and cfg.background.max_overlap == 0.09
 
 
 def test_formats_page_names_existing_functions():

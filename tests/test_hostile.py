@@ -532,12 +532,27 @@ def config_alias_bomb(ws):
 
 @case
 def config_negative_tau(ws):
-    return run_args(ws, "--config", ws.config("chamfer_3d:\n  tau: -1\n")), "chamfer_3d.tau"
+    return run_args(ws, "--config", ws.config("chamfer_3d:\n  tau: -1\n")), "chamfer_3d: option 'tau'"
 
 
 @case
 def config_negative_pixel_tau(ws):
-    return run_args(ws, "--config", ws.config("pixel_match:\n  tau: -0.5\n")), "pixel_match.tau"
+    return run_args(ws, "--config", ws.config("pixel_match:\n  tau: -0.5\n")), "pixel_match: option 'tau'"
+
+
+@case
+def config_stage_negative_tau(ws):
+    return run_args(ws, "--config", ws.config("stages:\n  - [pixel_match]\n  - [{chamfer_3d: {tau: -1}}]\n")), "chamfer_3d: option 'tau'"
+
+
+@case
+def config_stage_misspelt_option(ws):
+    return run_args(ws, "--config", ws.config("stages:\n  - [{pixel_match: {taus: 0.3}}]\n")), "unknown option 'taus'"
+
+
+@case
+def config_stage_unknown_criterion(ws):
+    return run_args(ws, "--config", ws.config("stages:\n  - [pixel_matsh]\n")), "pixel_matsh"
 
 
 @case

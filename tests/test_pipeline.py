@@ -68,3 +68,18 @@ def test_quality_floor_on_real_ycbv_frames(ycbv_root):
     r = run(scene, Config.preset("rgbd"))
     m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
     assert m["num_gt"] == 4 and m["mean"]["iou"] >= 0.9
+
+
+def test_evidence_is_computed_only_when_a_criterion_requires_it():
+    from graphseg.config import Config
+    from graphseg.pipeline import run
+    from graphseg.testing.scenes import TWO_BOXES, box_scene
+
+    scene = box_scene(TWO_BOXES, views=3, shape=(64, 80))
+    plain = run(scene, Config())
+    assert "features" not in plain.info["pipeline"]["timings"] and "match" in plain.info["pipeline"]["timings"]
+    with_dino = run(scene, Config(stages=[["pixel_match", {"dino": {"threshold": 0.99}}], ["chamfer_3d"]]))
+    assert "features" in with_dino.info["pipeline"]["timings"]
+    only_3d = run(scene, Config(stages=[["chamfer_3d"]]))
+    assert "match" not in only_3d.info["pipeline"]["timings"] and only_3d.info["num_matches"] == 0
+    assert only_3d.num_objects == 2

@@ -191,7 +191,6 @@ class ReprojectionMatcher:
     """The ``reprojection`` matcher (see :func:`reprojection_matches`)."""
 
     name = "reprojection"
-    needs_3d = True
 
     def __init__(self, num_matches: int | None = 10_000, abs_tol: float = 0.005, rel_tol: float = 0.01, stride: int = 1, seed: int | None = 0) -> None:
         self.num_matches = num_matches
@@ -209,7 +208,6 @@ class FlowMatcher:
     """The ``flow`` matcher (see :func:`flow_matches`)."""
 
     name = "flow"
-    needs_3d = False
 
     def __init__(self, num_matches: int | None = 10_000, max_fb_error: float = 1.0, stride: int = 2, seed: int | None = 0) -> None:
         self.num_matches = num_matches
@@ -225,7 +223,6 @@ class SiftMatcher:
     """The ``sift`` matcher (see :func:`sift_matches`)."""
 
     name = "sift"
-    needs_3d = False
 
     def __init__(self, num_matches: int | None = 10_000, ratio: float = 0.8, ransac_threshold: float = 1.5, seed: int | None = 0) -> None:
         self.num_matches = num_matches

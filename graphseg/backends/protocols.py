@@ -32,13 +32,9 @@ class Segmenter(Protocol):
 
 @runtime_checkable
 class Matcher(Protocol):
-    """``(view_i, view_j) -> Matches`` (pixel coordinates in each image + certainty).
-
-    ``needs_3d`` says whether the matcher needs point maps and poses.
-    """
+    """``(view_i, view_j) -> Matches`` (pixel coordinates in each image + certainty)."""
 
     name: str
-    needs_3d: bool
 
     def __call__(self, view_i: View, view_j: View) -> Matches: ...
 

@@ -1,4 +1,4 @@
-"""graphseg.graphs: the correspondence graph, edge adders, contractors, coarsen and interop.
+"""graphseg.graphs: the correspondence graph, edge criteria, contractors, coarsen and interop.
 
 Examples
 --------
@@ -11,13 +11,14 @@ Examples
 """
 
 from .chamfer import (
-    Chamfer3DEdgeAdder,
+    Chamfer3D,
     PointSets,
     chamfer_edges,
     directed_chamfer,
     node_point_sets,
     remove_outliers,
 )
+from .coalesce import Groups, coalesce, combine_keys, group_by_key
 from .coarsen import coarsen, group_reduce
 from .contract import (
     ScipyContraction,
@@ -28,8 +29,16 @@ from .contract import (
     scipy_contraction,
     union_find_contraction,
 )
-from .evidence import Contractor, EdgeAdder, EdgeSet, Evidence
-from .features import FeatureSimilarityEdgeAdder, feature_similarity_edges, node_mean_features
+from .criterion import (
+    REDUCTIONS,
+    REQUIRES,
+    Criterion,
+    CriterionOptionsError,
+    build_criterion,
+    criterion_info,
+)
+from .evidence import Contractor, EdgeSet, Evidence
+from .features import FeatureSimilarity, feature_similarity_edges, node_mean_features
 from .graph import (
     CorrespondenceGraph,
     GraphValidationError,
@@ -40,8 +49,8 @@ from .graph import (
 )
 from .interop import from_networkx, from_pyg, read_graphml, to_networkx, to_pyg, write_graphml
 from .native import NativeFile, load_graph, load_native, save_graph, save_native
-from .pixel_match import PixelMatchEdgeAdder, pair_counts, pixel_match_edges, pixel_match_ratios
-from .registry import contractors, edge_adders
+from .pixel_match import PixelMatch, pair_counts, pixel_match_edges, pixel_match_ratios
+from .registry import contractors, criteria, edge_adders
 
 __all__ = [
     "CorrespondenceGraph",
@@ -52,7 +61,12 @@ __all__ = [
     "mask_node_table",
     "Evidence",
     "EdgeSet",
-    "EdgeAdder",
+    "Criterion",
+    "CriterionOptionsError",
+    "REQUIRES",
+    "REDUCTIONS",
+    "criterion_info",
+    "build_criterion",
     "Contractor",
     "randomized_star_contraction",
     "union_find_contraction",
@@ -63,19 +77,23 @@ __all__ = [
     "ScipyContraction",
     "coarsen",
     "group_reduce",
+    "coalesce",
+    "combine_keys",
+    "group_by_key",
+    "Groups",
     "pixel_match_ratios",
     "pixel_match_edges",
     "pair_counts",
-    "PixelMatchEdgeAdder",
+    "PixelMatch",
     "PointSets",
     "node_point_sets",
     "directed_chamfer",
     "remove_outliers",
     "chamfer_edges",
-    "Chamfer3DEdgeAdder",
+    "Chamfer3D",
     "node_mean_features",
     "feature_similarity_edges",
-    "FeatureSimilarityEdgeAdder",
+    "FeatureSimilarity",
     "to_networkx",
     "from_networkx",
     "write_graphml",
@@ -88,5 +106,6 @@ __all__ = [
     "load_native",
     "NativeFile",
     "edge_adders",
+    "criteria",
     "contractors",
 ]

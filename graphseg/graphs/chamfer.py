@@ -23,11 +23,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
+from .coalesce import combine_keys, group_by_key
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
@@ -37,7 +40,7 @@ __all__ = [
     "directed_chamfer",
     "remove_outliers",
     "chamfer_edges",
-    "Chamfer3DEdgeAdder",
+    "Chamfer3D",
 ]
 
 
@@ -135,24 +138,14 @@ def node_point_sets(
     if voxel_size is not None and voxel_size > 0 and node.size:
         ijk = np.floor((P - P.min(0)) / voxel_size).astype(np.int64)
         ext = ijk.max(0) + 1
-        if float(num_nodes) * float(np.prod(ext.astype(np.float64))) < 2**62:
-            key = ((node * ext[0] + ijk[:, 0]) * ext[1] + ijk[:, 1]) * ext[2] + ijk[:, 2]
-            order = np.argsort(key)  # order within a voxel does not matter (means)
-            skey = key[order]
-        else:  # pragma: no cover - astronomically large scenes
-            order = np.lexsort((ijk[:, 2], ijk[:, 1], ijk[:, 0], node))
-            skey = np.stack([node, *ijk.T], 1)[order]
-            skey = np.r_[0, np.cumsum(np.any(skey[1:] != skey[:-1], 1))]
-        new = np.r_[True, skey[1:] != skey[:-1]]
-        grp = np.cumsum(new) - 1
-        g = int(grp[-1]) + 1
-        cnt = np.bincount(grp, minlength=g).astype(np.float64)
-        Ps = P[order]
-        P = np.stack([np.bincount(grp, weights=Ps[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]
+        grouped = group_by_key(combine_keys([node, ijk[:, 0], ijk[:, 1], ijk[:, 2]], [num_nodes, *ext.tolist()]), stable=False)
+        grp, g = grouped.groups, grouped.num_groups  # groups ordered by (node, voxel)
+        cnt = grouped.counts.astype(np.float64)
+        P = np.stack([np.bincount(grp, weights=P[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]
         if C is not None:
-            Cs = C[order].astype(np.float64)
-            C = np.rint(np.stack([np.bincount(grp, weights=Cs[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
-        node = node[order][new]
+            Cf = C.astype(np.float64)
+            C = np.rint(np.stack([np.bincount(grp, weights=Cf[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
+        node = node[grouped.first]
     else:
         order = np.argsort(node, kind="stable")
         node, P = node[order], P[order].astype(np.float64)
@@ -371,56 +364,54 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     )
 
 
-class Chamfer3DEdgeAdder:
-    """The ``chamfer_3d`` edge adder: gathers node points, downsamples, cleans, tests.
+class Chamfer3D(Criterion):
+    """The ``chamfer_3d`` criterion: gathers node points, downsamples, cleans, tests.
 
-    Parameters
-    ----------
-    tau : float
-        Threshold in m^2 (default 5e-4 as in the paper; the official code used 5e-5).
-    voxel_size : float or None
-        Voxel edge in metres for downsampling (default 5 mm).
-    stride : int
-        Pixel stride when gathering points.
-    outliers : {None, "statistical", "dbscan"}
-        Per-node outlier removal before the test.
-    prune : bool
-        Bounding-box pruning (see :func:`chamfer_edges`).
+    Options (:class:`Chamfer3D.Options`): ``tau`` (m^2; 5e-4 as in the paper,
+    the official code used 5e-5), ``voxel_size`` (metres, None = no
+    downsampling), ``stride`` (pixel stride when gathering points),
+    ``outliers`` (None, ``"statistical"`` or ``"dbscan"``, with
+    ``outlier_k``/``outlier_std_ratio`` and ``dbscan_eps``/``dbscan_min_samples``)
+    and ``prune`` (bounding-box pruning, see :func:`chamfer_edges`).
 
     Examples
     --------
     >>> lab = [np.array([[0, 1]])]
     >>> pts = [np.array([[[0, 0, 0], [0.01, 0, 0]]], dtype=np.float32)]
     >>> g = CorrespondenceGraph(2, node_attr={"area": [1, 1]})
-    >>> Chamfer3DEdgeAdder(voxel_size=None)(g, Evidence(lab, points=pts)).edge_index.tolist()
+    >>> Chamfer3D(Chamfer3D.Options(voxel_size=None, stride=1))(g, Evidence(lab, points=pts)).edge_index.tolist()
     [[0], [1]]
     """
 
-    name = "chamfer_3d"
+    class Options(BaseModel):
+        """Options of ``chamfer_3d``."""
 
-    def __init__(
-        self,
-        tau: float = 5e-4,
-        voxel_size: float | None = 0.005,
-        stride: int = 1,
-        outliers: str | None = None,
-        prune: bool = True,
-        **outlier_kwargs: Any,
-    ) -> None:
-        self.tau = tau
-        self.voxel_size = voxel_size
-        self.stride = stride
-        self.outliers = outliers
-        self.prune = prune
-        self.outlier_kwargs = outlier_kwargs
+        model_config = ConfigDict(extra="forbid")
+        tau: float = Field(5e-4, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
+        voxel_size: float | None = Field(0.005, gt=0, description="metres; None = no downsampling")
+        stride: int = Field(2, ge=1, description="pixel stride when gathering points")
+        outliers: Literal["statistical", "dbscan"] | None = None
+        outlier_k: int = Field(8, ge=1, description="statistical: neighbours per point")
+        outlier_std_ratio: float = Field(2.0, gt=0, description="statistical: standard deviations")
+        dbscan_eps: float = Field(0.02, gt=0, description="dbscan: neighbourhood radius (metres)")
+        dbscan_min_samples: int = Field(5, ge=1)
+        prune: bool = True
+
+    name = "chamfer_3d"
+    requires = frozenset({"points"})
+    reduce = {"distance": "min", "weight": "max"}
+    tags = {"dimension": "3d"}
+    options: Chamfer3D.Options
 
     def point_sets(self, graph: CorrespondenceGraph, evidence: Evidence) -> PointSets:
+        """The cleaned, downsampled point set of every node."""
         if evidence.points is None:
             raise ValueError("chamfer_3d needs world points (Evidence.points)")
-        sets = node_point_sets(
-            evidence.node_labels, evidence.points, graph.num_nodes, stride=self.stride, voxel_size=self.voxel_size
+        o = self.options
+        sets = node_point_sets(evidence.node_labels, evidence.points, graph.num_nodes, stride=o.stride, voxel_size=o.voxel_size)
+        return remove_outliers(
+            sets, o.outliers, k=o.outlier_k, std_ratio=o.outlier_std_ratio, eps=o.dbscan_eps, min_samples=o.dbscan_min_samples
         )
-        return remove_outliers(sets, self.outliers, **self.outlier_kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
-        return chamfer_edges(self.point_sets(graph, evidence), self.tau, prune=self.prune)
+        return chamfer_edges(self.point_sets(graph, evidence), self.options.tau, prune=self.options.prune)

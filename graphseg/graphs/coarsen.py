@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .coalesce import coalesce
 from .graph import CorrespondenceGraph, GraphValidationError
 
 __all__ = ["coarsen", "group_reduce", "NODE_REDUCE", "EDGE_REDUCE"]
@@ -229,44 +230,21 @@ def coarsen(
             w = np.ones(n) if wcol is None else wcol
         node_attr[name] = group_reduce(col, cl, k, how, weights=w)
 
-    # edges: remap, drop self-loops, merge duplicates
-    u = cl[graph.edge_index[0]]
-    v = cl[graph.edge_index[1]]
-    keep = u != v
-    lo = np.minimum(u, v)[keep]
-    hi = np.maximum(u, v)[keep]
-    cols = {name: col[keep] for name, col in graph.edge_attr.items()}
-    e = lo.size
-    key = lo * max(k, 1) + hi
-    for name in merge_by:
-        if name in cols and e:
-            _, code = np.unique(cols[name], return_inverse=True)
-            key = key * (int(code.max()) + 1) + code.reshape(-1)
-    order = np.argsort(key, kind="stable")
-    skey = key[order]
-    starts = np.flatnonzero(np.r_[True, skey[1:] != skey[:-1]]) if e else np.zeros(0, np.int64)
-    groups = np.empty(e, np.int64)
-    groups[order] = np.cumsum(np.r_[True, skey[1:] != skey[:-1]]) - 1 if e else groups[:0]
-    g = starts.size
-    first = order[starts]
+    # edges: remap, drop self-loops, merge duplicates (one shared group-by-key step)
     etab = dict(EDGE_REDUCE)
     etab.update(edge_reduce or {})
-    edge_attr: dict[str, np.ndarray] = {}
-    mult = cols.pop("multiplicity", np.ones(e, np.int64))
-    for name, col in cols.items():
-        if name in merge_by:
-            edge_attr[name] = col[first]
-            continue
-        how = etab.get(name, "mean" if col.dtype.kind in "biuf" else "first")
-        if how == "mean" and col.dtype.kind in "iu":
-            how = "max"
-        edge_attr[name] = group_reduce(col, groups, g, how)
-    edge_attr["multiplicity"] = group_reduce(np.asarray(mult, np.int64), groups, g, "sum")
+    new_ei, edge_attr, _ = coalesce(
+        np.stack([cl[graph.edge_index[0]], cl[graph.edge_index[1]]]),
+        graph.edge_attr,
+        k,
+        reduce=etab,
+        merge_by=merge_by,
+    )
     mem = graph.members
     members = {"view": mem["view"], "mask_id": mem["mask_id"], "node": cl[mem["node"]]}
     return CorrespondenceGraph(
         k,
-        np.stack([lo[first], hi[first]]) if g else np.zeros((2, 0), np.int64),
+        new_ei,
         edge_attr,
         node_attr,
         masks=graph.masks,

@@ -19,7 +19,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict
 
+from .coalesce import combine_keys, group_by_key
 from .graph import as_edge_index
 
 __all__ = [
@@ -77,15 +79,13 @@ def canonical_cluster(cluster: Any) -> np.ndarray:
 
 
 def _dedupe(a: np.ndarray, b: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
-    """Drop duplicate undirected edges when a bitmap over m*m pairs is cheap."""
+    """Drop duplicate undirected edges when a dense pass over m*m pairs is cheap."""
     if m * m > 8 * a.size + 4096:
         return a, b
     lo = np.minimum(a, b).astype(np.int64)
     hi = np.maximum(a, b).astype(np.int64)
-    seen = np.zeros(m * m, bool)
-    seen[lo * m + hi] = True
-    key = np.flatnonzero(seen)
-    lo, hi = np.divmod(key, m)
+    keys = group_by_key(combine_keys([lo, hi], [m, m]), num_keys=m * m).keys
+    lo, hi = np.divmod(keys, m)
     return lo.astype(a.dtype), hi.astype(a.dtype)
 
 
@@ -240,13 +240,17 @@ def scipy_contraction(edge_index: Any, num_nodes: int) -> np.ndarray:
     return canonical_cluster(labels)
 
 
+class _NoOptions(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
 class StarContraction:
-    """Randomized star contraction as a contractor object.
+    """Randomized star contraction as a contractor object (registered as ``star``).
 
     Parameters
     ----------
-    seed : None or int
-        Default seed when a call passes no ``rng``.
+    options : StarContraction.Options, optional
+        No options: randomness comes only from the call's ``rng``.
 
     Attributes
     ----------
@@ -255,21 +259,21 @@ class StarContraction:
 
     Examples
     --------
-    >>> c = StarContraction(seed=0)
-    >>> c([[0], [1]], 3).tolist(), c.rounds_
+    >>> c = StarContraction()
+    >>> c([[0], [1]], 3, rng=0).tolist(), c.rounds_
     ([0, 0, 1], 1)
     """
 
     name = "star"
+    Options = _NoOptions
+    uses_edge_attr = False
 
-    def __init__(self, seed: int | None = None) -> None:
-        self.seed = seed
+    def __init__(self, options: BaseModel | None = None) -> None:
+        self.options = options or self.Options()
         self.rounds_: int | None = None
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
-        cluster, self.rounds_ = randomized_star_contraction(
-            edge_index, num_nodes, rng=self.seed if rng is None else rng, return_rounds=True
-        )
+        cluster, self.rounds_ = randomized_star_contraction(edge_index, num_nodes, rng=rng, return_rounds=True)
         return cluster
 
 
@@ -277,6 +281,11 @@ class UnionFindContraction:
     """Union-find contraction as a contractor object (``rng`` is ignored)."""
 
     name = "union_find"
+    Options = _NoOptions
+    uses_edge_attr = False
+
+    def __init__(self, options: BaseModel | None = None) -> None:
+        self.options = options or self.Options()
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
         return union_find_contraction(edge_index, num_nodes)
@@ -286,6 +295,11 @@ class ScipyContraction:
     """scipy csgraph connected components as a contractor object (``rng`` ignored)."""
 
     name = "scipy"
+    Options = _NoOptions
+    uses_edge_attr = False
+
+    def __init__(self, options: BaseModel | None = None) -> None:
+        self.options = options or self.Options()
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
         return scipy_contraction(edge_index, num_nodes)

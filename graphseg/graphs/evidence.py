@@ -1,6 +1,7 @@
-"""What edge adders read: :class:`Evidence` and what they return: :class:`EdgeSet`.
+"""What edge criteria read: :class:`Evidence` and what they return: :class:`EdgeSet`.
 
-An edge adder is any callable ``adder(graph, evidence) -> EdgeSet``. The
+An edge criterion (:class:`graphseg.graphs.Criterion`) is called as
+``criterion(graph, evidence) -> EdgeSet``. The
 evidence is per-view arrays only (no backend objects), so the graph package
 never depends on how masks, matches or points were made.
 
@@ -22,30 +23,43 @@ import numpy as np
 
 from .graph import CorrespondenceGraph, as_edge_index
 
-__all__ = ["Evidence", "EdgeSet", "EdgeAdder", "Contractor"]
+__all__ = ["Evidence", "EdgeSet", "Contractor"]
 
 
 @dataclass
 class Evidence:
-    """Per-view inputs for edge adders.
+    """Per-view inputs for edge criteria (see :data:`graphseg.graphs.criterion.REQUIRES`).
+
+    The pipeline fills only the fields some configured criterion ``requires``;
+    the others stay None (``matches``: empty).
 
     Attributes
     ----------
     node_labels : list of int64 ``[H, W]``
         Pixel -> node of the graph being extended (-1 = no node). For a
-        contracted graph this is ``graph.node_labels()``.
+        contracted graph this is ``graph.node_labels()``. Always given.
     matches : mapping ``(i, j) -> Matches``
         Pixel matches between views ``i < j``.
     points : list of float32 ``[H, W, 3]`` or None
         World point maps, NaN where invalid.
     features : list of float ``[h, w, D]`` or float ``[N, D]`` or None
         Per-pixel feature maps (any resolution) or per-node features.
+    rgb : list of uint8 ``[H, W, 3]`` or None
+    cameras : list of ``(K [3, 3], cam_to_world [4, 4])`` or None
+        Per view; either matrix may be None when unknown.
+    confidence : list of float ``[H, W]`` (or None per view) or None
+    masks : list of int ``[H, W]`` or None
+        The composed mask images (``mask_id + 1``, 0 = none) of the mask graph.
     """
 
     node_labels: list[np.ndarray]
     matches: Mapping[tuple[int, int], Any] = field(default_factory=dict)
     points: Sequence[np.ndarray | None] | None = None
     features: Any = None
+    rgb: Sequence[np.ndarray] | None = None
+    cameras: Sequence[tuple[np.ndarray | None, np.ndarray | None]] | None = None
+    confidence: Sequence[np.ndarray | None] | None = None
+    masks: Sequence[np.ndarray] | None = None
 
     @classmethod
     def for_graph(cls, graph: CorrespondenceGraph, **kwargs: Any) -> Evidence:
@@ -71,16 +85,13 @@ class EdgeSet:
 
 
 @runtime_checkable
-class EdgeAdder(Protocol):
-    """Protocol of edge adders: ``name`` plus ``__call__(graph, evidence) -> EdgeSet``."""
-
-    name: str
-
-    def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet: ...
-
-
-@runtime_checkable
 class Contractor(Protocol):
-    """Protocol of contractors: ``__call__(edge_index, num_nodes, *, rng=None) -> cluster``."""
+    """Protocol of contractors: ``__call__(edge_index, num_nodes, *, rng=None) -> cluster``.
+
+    A contractor class with ``uses_edge_attr = True`` is called with
+    ``edge_attr=`` (the stage graph's edge columns) as well. Contractors
+    return only the canonical ``cluster`` (int64 ``[N]``, ids ``0..k-1`` by
+    first appearance); :func:`graphseg.graphs.coarsen` does the rest.
+    """
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray: ...

@@ -18,11 +18,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
-__all__ = ["node_mean_features", "feature_similarity_edges", "FeatureSimilarityEdgeAdder"]
+__all__ = ["node_mean_features", "feature_similarity_edges", "FeatureSimilarity"]
 
 
 def node_mean_features(node_labels: Sequence[np.ndarray], features: Sequence[np.ndarray], num_nodes: int) -> np.ndarray:
@@ -106,23 +108,37 @@ def feature_similarity_edges(
     return EdgeSet(np.stack([u, v]).astype(np.int64), {"criterion": np.full(u.size, "dino"), "similarity": sim, "weight": sim})
 
 
-class FeatureSimilarityEdgeAdder:
-    """The ``dino`` edge adder (registered as ``dino`` and ``dino_similarity``).
+class FeatureSimilarity(Criterion):
+    """The ``dino`` criterion: a thin class around :func:`feature_similarity_edges`.
 
     ``Evidence.features`` is either per node ``[N, D]`` or a list of per-view
     per-pixel maps ``[h, w, D]``.
+
+    Examples
+    --------
+    >>> g = CorrespondenceGraph(3, node_attr={"view": [0, 1, 1]})
+    >>> ev = Evidence([], features=np.array([[1.0, 0], [1, 0.1], [0, 1]]))
+    >>> FeatureSimilarity(threshold=0.9)(g, ev).edge_index.tolist()
+    [[0], [1]]
     """
 
-    name = "dino"
+    class Options(BaseModel):
+        """Options of ``dino``."""
 
-    def __init__(self, threshold: float = 0.8, cross_view_only: bool = False) -> None:
-        self.threshold = threshold
-        self.cross_view_only = cross_view_only
+        model_config = ConfigDict(extra="forbid")
+        threshold: float = Field(0.8, ge=-1, le=1, description="cosine similarity")
+        cross_view_only: bool = False
+
+    name = "dino"
+    requires = frozenset({"features"})
+    reduce = {"similarity": "max", "weight": "max"}
+    tags = {"dimension": "2d"}
+    options: FeatureSimilarity.Options
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         feats = evidence.features
         if feats is None:
-            raise ValueError("the dino edge adder needs features (Evidence.features)")
+            raise ValueError("the dino criterion needs features (Evidence.features)")
         if isinstance(feats, np.ndarray) and feats.ndim == 2:
             if feats.shape[0] != graph.num_nodes:
                 raise ValueError(f"expected node features of shape [{graph.num_nodes}, D] (got {list(feats.shape)})")
@@ -130,4 +146,4 @@ class FeatureSimilarityEdgeAdder:
         else:
             nf = node_mean_features(evidence.node_labels, feats, graph.num_nodes)
         view = graph.node_attr.get("view")
-        return feature_similarity_edges(nf, self.threshold, node_view=view, cross_view_only=self.cross_view_only)
+        return feature_similarity_edges(nf, self.options.threshold, node_view=view, cross_view_only=self.options.cross_view_only)

@@ -35,6 +35,7 @@ CorrespondenceGraph(level='mask', num_nodes=3, num_edges=1, node_attr=[], edge_a
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -207,7 +208,8 @@ def mask_node_table(
 
     Notes
     -----
-    One pass of ``np.bincount`` / ``np.minimum.at`` per view: O(H W) per view.
+    One stable (radix) sort of the mask pixels by id per view, then ``reduceat``
+    segment reductions: O(H W) per view, no scatter.
 
     Examples
     --------
@@ -224,29 +226,32 @@ def mask_node_table(
     for v, lab in enumerate(labels):
         lab = np.asarray(lab)
         h, w = lab.shape
-        flat = lab.reshape(-1).astype(np.int64)
+        flat = lab.reshape(-1)
         nz = np.flatnonzero(flat)
-        ids = flat[nz] - 1
-        m = int(ids.max()) + 1 if ids.size else 0
-        area = np.bincount(ids, minlength=m)
-        present = np.flatnonzero(area)
-        ys, xs = np.divmod(nz, w)
-        x0 = np.full(m, w, np.int64)
-        y0 = np.full(m, h, np.int64)
-        x1 = np.full(m, -1, np.int64)
-        y1 = np.full(m, -1, np.int64)
-        np.minimum.at(x0, ids, xs)
-        np.minimum.at(y0, ids, ys)
-        np.maximum.at(x1, ids, xs)
-        np.maximum.at(y1, ids, ys)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cx = np.bincount(ids, weights=xs, minlength=m) / area
-            cy = np.bincount(ids, weights=ys, minlength=m) / area
+        ids = flat[nz].astype(np.int64) - 1
+        # one stable sort by mask id (radix sort for small ids); pixels stay in raster order per mask
+        order = np.argsort(ids.astype(np.uint16) if ids.size and ids.max() < 2**16 else ids, kind="stable")
+        sid = ids[order]
+        starts = np.flatnonzero(np.r_[True, sid[1:] != sid[:-1]]) if sid.size else np.zeros(0, np.int64)
+        ends = np.r_[starts[1:], sid.size]
+        present = sid[starts] if sid.size else np.zeros(0, np.int64)
+        area = ends - starts
+        pix = nz[order]
+        ys, xs = np.divmod(pix, w)
+        if present.size:
+            x0 = np.minimum.reduceat(xs, starts)
+            x1 = np.maximum.reduceat(xs, starts)
+            y0, y1 = ys[starts], ys[ends - 1]  # raster order: first and last rows
+            cx = np.add.reduceat(xs, starts) / area
+            cy = np.add.reduceat(ys, starts) / area
+        else:
+            x0 = x1 = y0 = y1 = np.zeros(0, np.int64)
+            cx = cy = np.zeros(0)
         cols["view"].append(np.full(present.size, v, np.int64))
         cols["mask_id"].append(present.astype(np.int64))
-        cols["area"].append(area[present].astype(np.int64))
-        cols["bbox"].append(np.stack([x0, y0, x1, y1], 1)[present])
-        cols["centroid"].append(np.stack([cx, cy], 1)[present])
+        cols["area"].append(area.astype(np.int64))
+        cols["bbox"].append(np.stack([x0, y0, x1, y1], 1).astype(np.int64))
+        cols["centroid"].append(np.stack([cx, cy], 1).astype(np.float64))
         if with_3d:
             pts = None if points is None else points[v]
             if pts is None:
@@ -254,22 +259,24 @@ def mask_node_table(
                 cols["centroid_3d"].append(np.full((present.size, 3), np.nan))
                 cols["bbox_3d"].append(np.full((present.size, 6), np.nan))
                 continue
-            p = np.asarray(pts, dtype=np.float64).reshape(-1, 3)[nz]
+            p = np.asarray(pts).reshape(-1, 3)[pix]
             ok = np.isfinite(p).all(1)
-            pid, p = ids[ok], p[ok]
-            cnt = np.bincount(pid, minlength=m)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                c3 = np.stack([np.bincount(pid, weights=p[:, ax], minlength=m) for ax in range(3)], 1) / cnt[:, None]
-            lo = np.full((m, 3), np.inf)
-            hi = np.full((m, 3), -np.inf)
-            for ax in range(3):
-                np.minimum.at(lo[:, ax], pid, p[:, ax])
-                np.maximum.at(hi[:, ax], pid, p[:, ax])
-            box = np.concatenate([lo, hi], 1)
-            box[cnt == 0] = np.nan
-            cols["num_points"].append(cnt[present].astype(np.int64))
-            cols["centroid_3d"].append(c3[present])
-            cols["bbox_3d"].append(box[present])
+            if present.size:
+                cnt = np.add.reduceat(ok.astype(np.int64), starts)
+                p64 = np.where(ok[:, None], p, 0).astype(np.float64)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    c3 = np.add.reduceat(p64, starts, axis=0) / cnt[:, None]
+                pn = p if ok.all() else np.where(ok[:, None], p, np.nan)  # min/max are exact in the input dtype
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", RuntimeWarning)
+                    box = np.concatenate([np.fmin.reduceat(pn, starts, axis=0), np.fmax.reduceat(pn, starts, axis=0)], 1).astype(np.float64)
+                box[cnt == 0] = np.nan
+                c3[cnt == 0] = np.nan
+            else:
+                cnt, c3, box = np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 6))
+            cols["num_points"].append(cnt.astype(np.int64))
+            cols["centroid_3d"].append(c3)
+            cols["bbox_3d"].append(box)
     shapes = {"bbox": (0, 4), "centroid": (0, 2), "centroid_3d": (0, 3), "bbox_3d": (0, 6)}
     out = {}
     for k, parts in cols.items():
@@ -536,20 +543,6 @@ class CorrespondenceGraph:
         target.edge_attr = concat_edge_attr([(target.num_edges, target.edge_attr), (ei.shape[1], attrs)])
         target.edge_index = np.concatenate([target.edge_index, ei], axis=1)
         return target
-
-    def edges_where(self, **equal: Any) -> np.ndarray:
-        """Boolean ``[E]`` selecting edges whose columns equal the given values."""
-        keep = np.ones(self.num_edges, bool)
-        for k, val in equal.items():
-            keep &= self.edge_attr[k] == val
-        return keep
-
-    def subgraph_edges(self, keep: np.ndarray) -> CorrespondenceGraph:
-        """A copy keeping only the edges where ``keep`` (bool ``[E]``) holds."""
-        g = self.copy()
-        g.edge_index = g.edge_index[:, keep]
-        g.edge_attr = {k: v[keep] for k, v in g.edge_attr.items()}
-        return g
 
     # -------------------------------------------------------------- contraction
     def contract(self, contractor: Any = "star", *, rng: Any = None) -> np.ndarray:

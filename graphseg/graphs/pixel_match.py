@@ -26,14 +26,17 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
+from .coalesce import combine_keys, group_by_key
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
-__all__ = ["pair_counts", "pixel_match_ratios", "pixel_match_edges", "PixelMatchEdgeAdder", "lookup_pixels"]
+__all__ = ["pair_counts", "pixel_match_ratios", "pixel_match_edges", "PixelMatch", "lookup_pixels"]
 
 
 def pair_counts(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -56,19 +59,10 @@ def pair_counts(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.nd
     """
     a = np.asarray(a, np.int64)
     b = np.asarray(b, np.int64)
-    key = a * n + b
-    if n * n <= max(4 * key.size, 1 << 16):
-        cnt = np.bincount(key, minlength=n * n)
-        nz = np.flatnonzero(cnt)
-        return nz // n, nz % n, cnt[nz].astype(np.int64)
-    key = np.sort(key)
-    if not key.size:
-        z = np.zeros(0, np.int64)
-        return z, z, z
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    count = np.diff(np.r_[starts, key.size])
-    uk = key[starts]
-    return uk // n, uk % n, count.astype(np.int64)
+    g = group_by_key(combine_keys([a, b], [n, n]), num_keys=n * n if n * n < 2**62 else None)
+    if n * n < 2**62:
+        return g.keys // n, g.keys % n, g.counts
+    return a[g.first], b[g.first], g.counts  # pragma: no cover - rank keys for astronomically many nodes
 
 
 def lookup_pixels(image: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -254,47 +248,50 @@ def pixel_match_edges(
     )
 
 
-class PixelMatchEdgeAdder:
-    """The ``pixel_match`` edge adder: a thin class around :func:`pixel_match_edges`.
+class PixelMatch(Criterion):
+    """The ``pixel_match`` criterion: a thin class around :func:`pixel_match_edges`.
 
-    Parameters are those of :func:`pixel_match_edges`. Node areas come from the
-    graph's ``area`` column.
+    Options are those of :func:`pixel_match_edges` (see :class:`PixelMatch.Options`).
+    Node areas come from the graph's ``area`` column.
 
     Examples
     --------
     >>> from graphseg.scene import Matches
     >>> g = CorrespondenceGraph.from_masks([np.array([[1, 1]]), np.array([[1, 1]])])
     >>> ev = Evidence.for_graph(g, matches={(0, 1): Matches([[0, 0]], [[1, 0]], [1.0])})
-    >>> PixelMatchEdgeAdder(tau=0.5, min_matches=1)(g, ev).edge_index.tolist()
+    >>> PixelMatch(PixelMatch.Options(tau=0.5, min_matches=1))(g, ev).edge_index.tolist()
     [[0], [1]]
     """
 
-    name = "pixel_match"
+    class Options(BaseModel):
+        """Options of ``pixel_match``."""
 
-    def __init__(
-        self,
-        tau: float | None = None,
-        percentile: float = 78.0,
-        min_matches: int = 3,
-        normalization: str = "area",
-        consistency_percentile: float | None = None,
-    ) -> None:
-        self.tau = tau
-        self.percentile = percentile
-        self.min_matches = min_matches
-        self.normalization = normalization
-        self.consistency_percentile = consistency_percentile
+        model_config = ConfigDict(extra="forbid")
+        tau: float | None = Field(None, ge=0, description="absolute ratio threshold; None: percentile")
+        percentile: float = Field(78.0, ge=0, le=100)
+        normalization: Literal["area", "hits", "pair_hits"] = "area"
+        min_matches: int = Field(3, ge=1, description="pairs sharing fewer matches get no edge and do not count toward the percentile (1 = the paper's rule)")
+        consistency_percentile: float | None = Field(None, ge=0, le=100)
+
+    name = "pixel_match"
+    requires = frozenset({"matches", "points"})  # points: for consistency_percentile
+    reduce = {"weight": "max", "count": "sum", "ratio": "max"}
+    tags = {"dimension": "2d"}
+    options: PixelMatch.Options
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
+        o = self.options
+        if o.consistency_percentile is not None and evidence.points is None:
+            raise ValueError("pixel_match with consistency_percentile needs world points (Evidence.points)")
         return pixel_match_edges(
             evidence.node_labels,
             evidence.matches,
             graph.num_nodes,
             areas=np.asarray(graph.node_attr["area"]),
-            tau=self.tau,
-            percentile=self.percentile,
-            min_matches=self.min_matches,
-            normalization=self.normalization,
+            tau=o.tau,
+            percentile=o.percentile,
+            min_matches=o.min_matches,
+            normalization=o.normalization,
             points=evidence.points,
-            consistency_percentile=self.consistency_percentile,
+            consistency_percentile=o.consistency_percentile,
         )

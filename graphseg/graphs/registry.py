@@ -1,5 +1,7 @@
-"""Registries of edge adders and contractors (entry-point groups
+"""Registries of edge criteria and contractors (entry-point groups
 ``graphseg.edge_adders`` and ``graphseg.contractors``).
+
+``criteria`` is the same registry as ``edge_adders`` (its historical name).
 
 Examples
 --------
@@ -13,13 +15,14 @@ from __future__ import annotations
 
 from ..registry import Registry
 
-__all__ = ["edge_adders", "contractors"]
+__all__ = ["edge_adders", "criteria", "contractors"]
 
-edge_adders = Registry("edge adder", group="graphseg.edge_adders")
-edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatchEdgeAdder")
-edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3DEdgeAdder")
-edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
-edge_adders.register("dino_similarity", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
+edge_adders = Registry("edge criterion", group="graphseg.edge_adders")
+edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatch")
+edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3D")
+edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarity")
+
+criteria = edge_adders
 
 contractors = Registry("contractor", group="graphseg.contractors")
 contractors.register("star", "graphseg.graphs.contract:StarContraction")

@@ -1,12 +1,12 @@
 """The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment()."""
 
-from .background import BackgroundInfo, background_masks, fit_plane_ransac
+from .background import BackgroundInfo, background_masks, fit_table_plane
 from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
 from .segment import segment
 
 __all__ = [
-    "fit_plane_ransac",
+    "fit_table_plane",
     "background_masks",
     "BackgroundInfo",
     "compose_masks",

@@ -28,7 +28,7 @@ import numpy as np
 from ..config import BackgroundConfig
 from ..geometry import fit_plane_ransac, point_normals
 
-__all__ = ["background_masks", "BackgroundInfo", "fit_plane_ransac", "point_normals"]
+__all__ = ["background_masks", "fit_table_plane", "BackgroundInfo"]
 
 
 @dataclass
@@ -38,6 +38,68 @@ class BackgroundInfo:
     plane: tuple[float, float, float, float] | None = None
     max_distance: float | None = None
     fraction: list[float] = field(default_factory=list)
+
+
+def _subsample(idx: list[np.ndarray], counts: list[int], size: int, gen: np.random.Generator) -> list[np.ndarray]:
+    """At most ``size`` of the indices in total, drawn uniformly, split per view (sorted)."""
+    total = sum(counts)
+    if total <= size:
+        return idx
+    pick = np.sort(gen.choice(total, size=size, replace=False))
+    bounds = np.cumsum([0, *counts])
+    return [i[pick[(pick >= lo) & (pick < hi)] - lo] for i, lo, hi in zip(idx, bounds[:-1], bounds[1:])]
+
+
+def fit_table_plane(
+    flat_points: Sequence[np.ndarray],
+    pool: Sequence[np.ndarray],
+    cam_centers: Sequence[np.ndarray] | None,
+    config: BackgroundConfig,
+    *,
+    rng: Any = None,
+) -> tuple[np.ndarray, float] | None:
+    """The table plane ``(normal [3], offset)`` by RANSAC, cameras on its positive side.
+
+    Parameters
+    ----------
+    flat_points : list of float ``[P_v, 3]``
+        Points per view.
+    pool : list of int arrays
+        Indices of the valid points of each view to sample from.
+    cam_centers : list of ``[3]`` or None
+        Orient the plane so the cameras lie on its positive side.
+    config : BackgroundConfig
+        ``ransac_sample``, ``ransac_iterations``, ``plane_tolerance`` and
+        ``min_plane_fraction`` are used.
+    rng : None, int or Generator, keyword-only
+
+    Returns
+    -------
+    (normal, offset) or None
+        None when fewer than ``min_plane_fraction`` of the sample are inliers.
+
+    Examples
+    --------
+    >>> ys, xs = np.mgrid[0:20, 0:20] * 0.01
+    >>> table = np.stack([xs, ys, np.zeros_like(xs)], -1).reshape(-1, 3)
+    >>> n, d = fit_table_plane([table], [np.arange(400)], [np.array([0, 0, 1.0])], BackgroundConfig(), rng=0)
+    >>> np.round(n, 3).tolist(), round(d, 3)
+    ([0.0, 0.0, 1.0], 0.0)
+    """
+    gen = np.random.default_rng(rng)
+    allp = np.concatenate([np.asarray(f)[i] for f, i in zip(flat_points, pool)])
+    if len(allp) < 3:
+        return None
+    take = gen.choice(len(allp), size=min(config.ransac_sample, len(allp)), replace=False)
+    sample = allp[take].astype(np.float64)
+    normal, offset, inl = fit_plane_ransac(sample, threshold=config.plane_tolerance, iterations=config.ransac_iterations, rng=gen)
+    if inl.mean() < config.min_plane_fraction:
+        return None
+    if cam_centers is not None and len(cam_centers):
+        side = np.mean([float(np.asarray(c) @ normal + offset) for c in cam_centers])
+        if side < 0:
+            normal, offset = -normal, -offset
+    return normal, float(offset)
 
 
 def background_masks(
@@ -68,7 +130,9 @@ def background_masks(
 
     Notes
     -----
-    RANSAC on at most ``ransac_sample`` points, then O(H W) per view.
+    The plane (RANSAC on ``ransac_sample`` points) and the median camera
+    distance are estimated on a random subsample of at most ``4 x
+    ransac_sample`` valid pixels drawn over all views; then O(H W) per view.
     """
     cfg = config or BackgroundConfig()
     info = BackgroundInfo()
@@ -78,51 +142,46 @@ def background_masks(
     gen = np.random.default_rng(rng)
     flat = [np.asarray(p, np.float32).reshape(-1, 3) for p in points]
     valid = [np.isfinite(f).all(1) for f in flat]
-    total = sum(int(v.sum()) for v in valid)
+    counts = [int(v.sum()) for v in valid]
+    total = sum(counts)
     bg = [np.zeros(f.shape[0], bool) for f in flat]
     if total == 0:
         return [b.reshape(s) for b, s in zip(bg, shapes)], info
-    plane = None
-    if cfg.plane and total >= 3:
-        allp = np.concatenate([f[v] for f, v in zip(flat, valid)])
-        take = gen.choice(len(allp), size=min(cfg.ransac_sample, len(allp)), replace=False)
-        sample = allp[take].astype(np.float64)
-        normal, offset, inl = fit_plane_ransac(sample, threshold=cfg.plane_tolerance, iterations=cfg.ransac_iterations, rng=gen)
-        if inl.mean() >= cfg.min_plane_fraction:
-            if cam_centers is not None and len(cam_centers):
-                side = np.mean([float(np.asarray(c) @ normal + offset) for c in cam_centers])
-                if side < 0:
-                    normal, offset = -normal, -offset
-            plane = (normal, offset)
-            info.plane = (float(normal[0]), float(normal[1]), float(normal[2]), float(offset))
+    # estimates (plane, median distance) use a random subsample of the valid pixels
+    idx = [np.flatnonzero(v) for v in valid]
+    pool = _subsample(idx, counts, 4 * cfg.ransac_sample, gen)
+    plane = fit_table_plane(flat, pool, cam_centers, cfg, rng=gen) if cfg.plane and total >= 3 else None
+    if plane is not None:
+        info.plane = (float(plane[0][0]), float(plane[0][1]), float(plane[0][2]), float(plane[1]))
     max_dist = None
     if cam_centers is not None and cfg.max_distance is not None:
         if cfg.max_distance == "auto":
             meds = []
-            for f, v, c in zip(flat, valid, cam_centers):
-                if v.any():
-                    meds.append(float(np.median(np.linalg.norm(f[v] - np.asarray(c, np.float32), axis=1))))
+            for f, i, c in zip(flat, pool, cam_centers):
+                if i.size:
+                    meds.append(float(np.median(np.linalg.norm(f[i] - np.asarray(c, np.float32), axis=1))))
             max_dist = cfg.auto_distance_factor * float(np.median(meds)) if meds else None
         else:
             max_dist = float(cfg.max_distance)
         info.max_distance = max_dist
     cos_max = None if cfg.plane_normal_angle is None else float(np.cos(cfg.plane_normal_angle))
-    for k, (f, v) in enumerate(zip(flat, valid)):
-        pv = f[v].astype(np.float64)
+    for k, (f, i) in enumerate(zip(flat, idx)):
+        pv = f[i].astype(np.float64)
         b = np.zeros(len(pv), bool)
         if plane is not None:
             sd = pv @ plane[0] + plane[1]
             band = np.abs(sd) <= cfg.plane_tolerance
-            if cos_max is not None:
-                nrm = point_normals(np.asarray(points[k], np.float32), cfg.normal_step).reshape(-1, 3)[v]
+            if cos_max is not None and band.any():
+                nrm = point_normals(np.asarray(points[k], np.float32), cfg.normal_step).reshape(-1, 3)[i[band]]
                 cos = np.abs(nrm @ plane[0].astype(np.float32))
-                band &= ~(cos < cos_max)  # unknown normals (NaN) count as plane
+                band[band] = ~(cos < cos_max)  # unknown normals (NaN) count as plane
             b |= band
             if cfg.below_plane and cam_centers is not None:
                 b |= sd < -cfg.plane_tolerance
         if max_dist is not None and cam_centers is not None:
-            b |= np.linalg.norm(pv - np.asarray(cam_centers[k], np.float64), axis=1) > max_dist
-        bg[k][v] = b
+            d = pv - np.asarray(cam_centers[k], np.float64)
+            b |= np.einsum("ij,ij->i", d, d) > max_dist * max_dist
+        bg[k][i] = b
     out = [b.reshape(s) for b, s in zip(bg, shapes)]
     info.fraction = [float(m.mean()) for m in out]
     return out, info

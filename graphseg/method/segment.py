@@ -3,12 +3,17 @@
 1. Background class (table plane by RANSAC, below-plane and far points).
 2. Per view, masks are composed into a label image; every surviving mask is a
    :class:`~graphseg.graphs.MaskNode`.
-3. For each stage of ``config.stages``, the stage's edge adders add edges to the
-   current graph, the contractor returns a cluster vector, and
-   :func:`~graphseg.graphs.coarsen` builds the next, contracted graph. The
-   default stages are ``[["pixel_match"], ["chamfer_3d"]]``: 2D edge addition
-   and contraction, then 3D edge addition and contraction.
-4. Each final super-vertex is one object; ids are consistent across views.
+3. For each stage of ``config.stages``, the stage's edge criteria add edges to
+   the current graph, the contractor returns a cluster vector, and
+   :func:`~graphseg.graphs.coarsen` builds the next, contracted graph (parallel
+   edges merge as the criteria's ``reduce`` declares). The default stages are
+   ``[["pixel_match"], ["chamfer_3d"]]``: 2D edge addition and contraction,
+   then 3D edge addition and contraction; any number of stages works.
+4. Each final super-vertex is one object; ids are consistent across views, and
+   every node of every stage graph carries its final object id (node column
+   ``object``).
+
+The criteria receive exactly the evidence they ``require`` (built once).
 
 Examples
 --------
@@ -29,14 +34,7 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
-from ..graphs import (
-    CorrespondenceGraph,
-    Evidence,
-    coarsen,
-    contractors,
-    edge_adders,
-    node_point_sets,
-)
+from ..graphs import CorrespondenceGraph, Evidence, coarsen, node_point_sets
 from ..graphs.contract import canonical_cluster
 from ..result import Result
 from ..scene import Matches, Scene, SceneError
@@ -112,13 +110,38 @@ def _degenerate_warnings(scene: Scene, graph: CorrespondenceGraph, num_objects: 
     return warn
 
 
+def _evidence_fields(required: frozenset[str], scene: Scene, matches: Mapping[tuple[int, int], Matches], points: list[np.ndarray], features: Any, labels: list[np.ndarray]) -> dict[str, Any]:
+    """The evidence fields the criteria require, built once (``node_labels`` is added per stage)."""
+    out: dict[str, Any] = {}
+    if "matches" in required:
+        out["matches"] = matches
+    if "points" in required:
+        out["points"] = points
+    if "features" in required:
+        if features is None:
+            raise ValueError("a configured criterion requires features; pass features= (per-view maps [h, w, D] or per-node [N, D])")
+        out["features"] = features
+    if "rgb" in required:
+        if any(v.rgb is None for v in scene.views):
+            raise SceneError("a configured criterion requires rgb images", where=scene.name, field="rgb")
+        out["rgb"] = [v.rgb for v in scene.views]
+    if "cameras" in required:
+        out["cameras"] = [(v.K, v.cam_to_world) for v in scene.views]
+    if "confidence" in required:
+        out["confidence"] = [v.confidence for v in scene.views]
+    if "masks" in required:
+        out["masks"] = labels
+    return out
+
+
 def segment(
     scene: Scene,
     masks: MasksLike,
-    matches: Mapping[tuple[int, int], Matches],
+    matches: Mapping[tuple[int, int], Matches] | None,
     config: Config | None = None,
     *,
     features: Any = None,
+    rng: Any = None,
 ) -> Result:
     """Run GraphSeg on one scene.
 
@@ -130,12 +153,16 @@ def segment(
     masks : list, one entry per view
         A list of boolean masks ``[H, W]`` (may overlap or nest), a bool stack
         ``[K, H, W]``, or an int label image ``[H, W]`` (0 = none).
-    matches : mapping ``(i, j) -> Matches``
-        Pixel matches per view pair.
+    matches : mapping ``(i, j) -> Matches`` or None
+        Pixel matches per view pair (needed when a criterion requires ``matches``).
     config : Config, optional
         Defaults to ``Config()`` (GraphSeg); ``Config.minus()`` is GraphSeg-minus.
     features : optional
-        Per-view per-pixel feature maps ``[h, w, D]`` for a ``dino`` stage.
+        Per-view per-pixel feature maps ``[h, w, D]`` for criteria that require
+        ``features`` (e.g. ``dino``).
+    rng : None, int or numpy.random.Generator, keyword-only
+        Randomness of the background RANSAC and the contractor; default
+        ``config.seed``.
 
     Returns
     -------
@@ -157,15 +184,16 @@ def segment(
     plus k-d tree queries of candidate pairs).
     """
     cfg = config or Config()
+    matches = {} if matches is None else matches
     scene.validate()
     _check_inputs(scene, masks, matches)
     masks = _validate_masks(scene, masks)
-    rng = np.random.default_rng(cfg.seed)
+    gen = np.random.default_rng(cfg.seed if rng is None else rng)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     points = [_finite_points(np.asarray(v.points)) for v in scene.views]  # all present (checked above); inf -> invalid
     centers = [v.camera_center for v in scene.views] if all(v.cam_to_world is not None for v in scene.views) else None
-    bg, bg_info = background_masks(points, centers, cfg.background, rng=rng)
+    bg, bg_info = background_masks(points, centers, cfg.background, rng=gen)
     timings["background"] = time.perf_counter() - t0
 
     t = time.perf_counter()
@@ -180,27 +208,32 @@ def segment(
     graph = CorrespondenceGraph.from_masks(labels, points, meta={"scene": scene.name})
     timings["compose"] = time.perf_counter() - t
 
-    contractor = contractors.resolve(cfg.contractor)
+    contractor = cfg.contractor.build()
+    edge_reduce = cfg.edge_reduce()
+    shared = _evidence_fields(cfg.requires(), scene, matches, points, features, labels)
     stage_graphs: list[CorrespondenceGraph] = []
     stage_info: list[dict[str, Any]] = []
     current = graph
-    for s, adders in enumerate(cfg.stages):
+    for s, stage in enumerate(cfg.stages):
         t = time.perf_counter()
-        evidence = Evidence.for_graph(current, matches=matches, points=points, features=features)
-        with_edges = current
+        evidence = Evidence.for_graph(current, **shared)
+        with_edges = current.copy()
         info_s: dict[str, Any] = {"stage": s, "nodes": current.num_nodes, "adders": {}}
-        for name in adders:
-            adder = edge_adders.resolve(name, **cfg.options_for(name))
-            es = adder(current, evidence)
+        for spec in stage:
+            criterion = spec.build()
+            es = criterion(current, evidence)
             attrs = dict(es.edge_attr)
             attrs["stage"] = np.full(es.num_edges, s, np.int64)
-            attrs.setdefault("criterion", np.full(es.num_edges, name))
-            with_edges = with_edges.add_edges(es.edge_index, attrs)
-            info_s["adders"][name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
-        cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=rng)
+            attrs.setdefault("criterion", np.full(es.num_edges, spec.name))
+            with_edges.add_edges(es.edge_index, attrs, in_place=True)
+            info_s["adders"][spec.name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
+        if getattr(contractor, "uses_edge_attr", False):
+            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen, edge_attr=dict(with_edges.edge_attr))
+        else:
+            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen)
         with_edges.meta["stage"] = s
         stage_graphs.append(with_edges)
-        current = coarsen(with_edges, cluster)
+        current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
         info_s["components"] = current.num_nodes
         info_s["seconds"] = time.perf_counter() - t
         stage_info.append(info_s)
@@ -210,6 +243,10 @@ def segment(
     mem = current.members
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
     num_objects = int(obj.max()) if obj.size else 0
+    for g in stage_graphs:  # final object id of every node of every stage graph
+        col = np.zeros(g.num_nodes, np.int64)
+        col[g.members["node"]] = obj
+        g.node_attr["object"] = col
     out_labels = []
     for v, lab in enumerate(labels):
         sel = mem["view"] == v

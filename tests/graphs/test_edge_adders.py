@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 
 from graphseg.graphs import (
-    Chamfer3DEdgeAdder,
+    Chamfer3D,
     CorrespondenceGraph,
     Evidence,
-    FeatureSimilarityEdgeAdder,
-    PixelMatchEdgeAdder,
+    FeatureSimilarity,
+    PixelMatch,
     chamfer_edges,
     directed_chamfer,
     node_mean_features,
@@ -169,11 +169,11 @@ def test_chamfer_adder_and_outliers():
     lab = np.array([[0, 0, 1, 1, 2]])
     pts = np.array([[[0, 0, 0], [0.002, 0, 0], [0.004, 0, 0], [0.006, 0, 0], [1, 1, 1]]], np.float32)
     g = CorrespondenceGraph(3, node_attr={"area": [2, 2, 1]})
-    es = Chamfer3DEdgeAdder(voxel_size=None)(g, Evidence([lab], points=[pts]))
+    es = Chamfer3D(voxel_size=None, stride=1)(g, Evidence([lab], points=[pts]))
     assert es.edge_index.T.tolist() == [[0, 1]]
     assert es.edge_attr["criterion"].tolist() == ["chamfer_3d"]
     with pytest.raises(ValueError, match="needs world points"):
-        Chamfer3DEdgeAdder()(g, Evidence([lab]))
+        Chamfer3D()(g, Evidence([lab]))
 
 
 def test_remove_outliers_statistical_and_dbscan():
@@ -197,19 +197,19 @@ def test_feature_similarity():
     nf = node_mean_features(lab, feats, 3)
     np.testing.assert_allclose(nf, [[1, 0], [0, 1], [1, 0.1]])
     g = CorrespondenceGraph(3, node_attr={"view": np.array([0, 0, 1])})
-    es = FeatureSimilarityEdgeAdder(threshold=0.9)(g, Evidence(lab, features=feats))
+    es = FeatureSimilarity(threshold=0.9)(g, Evidence(lab, features=feats))
     assert es.edge_index.T.tolist() == [[0, 2]]
-    es = FeatureSimilarityEdgeAdder(threshold=0.9)(g, Evidence(lab, features=nf))
+    es = FeatureSimilarity(threshold=0.9)(g, Evidence(lab, features=nf))
     assert es.num_edges == 1
     with pytest.raises(ValueError, match="needs features"):
-        FeatureSimilarityEdgeAdder()(g, Evidence(lab))
+        FeatureSimilarity()(g, Evidence(lab))
     with pytest.raises(ValueError, match=r"expected node features of shape \[3, D\]"):
-        FeatureSimilarityEdgeAdder()(g, Evidence(lab, features=np.ones((2, 2))))
+        FeatureSimilarity()(g, Evidence(lab, features=np.ones((2, 2))))
 
 
 def test_pixel_match_adder_class():
     labels = two_view_labels()
     g = CorrespondenceGraph(4, node_attr={"area": np.full(4, 16)})
     m = {(0, 1): Matches([[0, 0]], [[0, 0]], [1.0])}
-    es = PixelMatchEdgeAdder(tau=0.01, min_matches=1)(g, Evidence(labels, matches=m))
+    es = PixelMatch(tau=0.01, min_matches=1)(g, Evidence(labels, matches=m))
     assert es.edge_index.T.tolist() == [[0, 2]]

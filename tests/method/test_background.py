@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from graphseg.config import BackgroundConfig
-from graphseg.method.background import background_masks, fit_plane_ransac, point_normals
+from graphseg.geometry import fit_plane_ransac, point_normals
+from graphseg.method.background import background_masks
 from graphseg.testing.scenes import two_boxes_scene
 
 

@@ -173,3 +173,84 @@ def test_large_input_has_no_quadratic_loop():
     r = segment(scene, masks, matches, cfg)
     assert time.perf_counter() - t < 20
     assert r.graph_2d.num_nodes == 1000
+
+
+# ---------------------------------------------------------------- the criterion contract in segment()
+import numpy as _np  # noqa: E402
+from pydantic import BaseModel as _BaseModel  # noqa: E402
+from pydantic import ConfigDict as _ConfigDict  # noqa: E402
+
+from graphseg.graphs import Criterion as _Criterion  # noqa: E402
+from graphseg.graphs import EdgeSet as _EdgeSet  # noqa: E402
+from graphseg.graphs import contractors as _contractors  # noqa: E402
+from graphseg.graphs import edge_adders as _edge_adders  # noqa: E402
+
+
+class _Spy(_Criterion):
+    """Records the evidence it was given; joins nothing."""
+
+    name = "spy_test"
+
+    class Options(_BaseModel):
+        model_config = _ConfigDict(extra="forbid")
+
+    requires = frozenset({"rgb", "cameras"})
+    seen: list = []
+
+    def __call__(self, graph, evidence):
+        type(self).seen.append(evidence)
+        return _EdgeSet(_np.zeros((2, 0), _np.int64))
+
+
+class _EdgeAttrContractor:
+    name = "edge_attr_test"
+    uses_edge_attr = True
+    calls: list = []
+
+    def __call__(self, edge_index, num_nodes, *, rng=None, edge_attr=None):
+        type(self).calls.append(sorted(edge_attr))
+        from graphseg.graphs import union_find_contraction
+
+        return union_find_contraction(edge_index, num_nodes)
+
+
+@pytest.fixture
+def spy():
+    _Spy.seen = []
+    _edge_adders.register("spy_test", _Spy)
+    _contractors.register("edge_attr_test", _EdgeAttrContractor)
+    yield _Spy
+    _edge_adders.unregister("spy_test")
+    _contractors.unregister("edge_attr_test")
+
+
+def test_evidence_on_demand_and_any_number_of_stages(spy):
+    scene, masks, matches = two_boxes_scene(parts=2)
+    cfg = Config(stages=[["pixel_match"], ["chamfer_3d"], ["spy_test"], ["spy_test"]])
+    r = segment(scene, masks, matches, cfg)
+    assert len(r.graphs) == 4 and r.num_stages == 4 and r.num_objects == 2
+    ev = spy.seen[0]
+    assert ev.rgb is not None and len(ev.cameras) == scene.num_views and ev.cameras[0][0].shape == (3, 3)
+    assert ev.features is None and ev.confidence is None  # nobody requires them
+    assert spy.seen[0].rgb is spy.seen[1].rgb  # built once, shared by the stages
+    spy.seen.clear()
+    segment(scene, masks, matches, Config(stages=[["spy_test"]]))
+    assert spy.seen[0].matches == {} and spy.seen[0].points is None  # only what the criteria require
+    for g in r.graphs:  # every node of every stage graph carries its final object id
+        assert set(g.node_attr["object"].tolist()) <= {1, 2} and g.node_attr["object"].min() >= 1
+    m = r.graphs[0].members
+    assert _np.array_equal(r.graphs[0].node_attr["object"][m["node"]], r.mask_object)
+
+
+def test_contractor_with_uses_edge_attr_gets_the_columns(spy):
+    _EdgeAttrContractor.calls = []
+    scene, masks, matches = two_boxes_scene(parts=2)
+    r = segment(scene, masks, matches, Config(contractor="edge_attr_test"))
+    assert r.num_objects == 2
+    assert _EdgeAttrContractor.calls[0][:2] == ["count", "criterion"] and "weight" in _EdgeAttrContractor.calls[0]
+
+
+def test_matches_not_needed_without_a_matches_criterion():
+    scene, masks, _ = two_boxes_scene(parts=1)
+    r = segment(scene, masks, None, Config(stages=[["chamfer_3d"]]))
+    assert r.num_objects == 2 and r.info["num_matches"] == 0

@@ -1,0 +1,228 @@
+"""Group-by-key: the one shared step behind pair counts, edge merging and voxel means.
+
+:func:`combine_keys` packs integer columns into one int64 key (mixed radix)
+and checks for overflow: when the product of the column ranges does not fit
+in int64, the rows are ranked densely instead (``np.unique`` over rows), so
+the key is always exact. :func:`group_by_key` turns keys into groups;
+:func:`coalesce` merges parallel edges with a per-column reduction (PyG's
+``coalesce``). Used by ``pixel_match``, the contractors, :func:`coarsen` and
+the Chamfer point gathering.
+
+Examples
+--------
+>>> import numpy as np
+>>> key = combine_keys([np.array([1, 0, 1]), np.array([2, 2, 2])], [3, 3])
+>>> g = group_by_key(key)
+>>> g.keys.tolist(), g.counts.tolist(), g.groups.tolist()
+([2, 5], [1, 2], [1, 0, 1])
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["combine_keys", "group_by_key", "Groups", "coalesce", "KEY_LIMIT"]
+
+#: Keys are packed only while the product of the column ranges stays below this.
+KEY_LIMIT = 2**62
+
+
+def combine_keys(columns: Sequence[Any], sizes: Sequence[int]) -> np.ndarray:
+    """One exact int64 key per row of the integer ``columns``.
+
+    Parameters
+    ----------
+    columns : sequence of int arrays ``[M]``
+        Column ``c`` holds values in ``[0, sizes[c])``.
+    sizes : sequence of int
+        Range of each column.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 ``[M]``; rows are equal exactly when their keys are, and keys sort
+        like the rows (lexicographically).
+
+    Notes
+    -----
+    O(M) when ``prod(sizes) < 2**62`` (mixed radix); otherwise the rows are
+    ranked with one ``np.unique(axis=0)``, O(M log M), so no key overflows.
+
+    Examples
+    --------
+    >>> combine_keys([np.array([0, 1]), np.array([1, 0])], [2, 2]).tolist()
+    [1, 2]
+    >>> big = 2**40
+    >>> combine_keys([np.array([big - 1, 0]), np.array([0, big - 1])], [big, big]).tolist()
+    [1, 0]
+    """
+    cols = [np.asarray(c, dtype=np.int64).reshape(-1) for c in columns]
+    if len(cols) != len(sizes):
+        raise ValueError(f"expected one size per column ({len(cols)}) (got {len(sizes)})")
+    if not cols:
+        raise ValueError("expected at least one key column")
+    m = cols[0].size
+    if any(c.size != m for c in cols):
+        raise ValueError(f"expected key columns of equal length (got {[c.size for c in cols]})")
+    total = 1
+    for s in sizes:
+        total *= max(int(s), 1)
+    if total < KEY_LIMIT:
+        key = np.zeros(m, np.int64)
+        for c, s in zip(cols, sizes):
+            key = key * max(int(s), 1) + c
+        return key
+    _, inv = np.unique(np.stack(cols, 1), axis=0, return_inverse=True)
+    return inv.reshape(-1).astype(np.int64)
+
+
+@dataclass
+class Groups:
+    """Rows grouped by key.
+
+    Attributes
+    ----------
+    keys : int64 ``[G]``
+        Distinct keys, ascending.
+    groups : int64 ``[M]``
+        Group of every row (index into ``keys``).
+    first : int64 ``[G]``
+        First row (in input order) of every group.
+    counts : int64 ``[G]``
+        Rows per group.
+    """
+
+    keys: np.ndarray
+    groups: np.ndarray
+    first: np.ndarray
+    counts: np.ndarray
+
+    @property
+    def num_groups(self) -> int:
+        return int(self.keys.size)
+
+
+def group_by_key(key: Any, num_keys: int | None = None, *, stable: bool = True) -> Groups:
+    """Group rows by an int64 key (from :func:`combine_keys`).
+
+    Parameters
+    ----------
+    key : int array ``[M]``
+    num_keys : int, optional
+        Upper bound of the keys; when small (``<= max(4 M, 65536)``) a dense
+        ``bincount`` replaces the sort.
+    stable : bool, keyword-only
+        With False the sort need not be stable: ``first`` is then some row of
+        each group, not necessarily the first (faster when only sums matter).
+
+    Returns
+    -------
+    Groups
+
+    Notes
+    -----
+    O(M log M) with one stable sort, or O(M + num_keys) with the dense path.
+
+    Examples
+    --------
+    >>> g = group_by_key(np.array([7, 3, 7]))
+    >>> g.keys.tolist(), g.groups.tolist(), g.first.tolist(), g.counts.tolist()
+    ([3, 7], [1, 0, 1], [1, 0], [1, 2])
+    >>> group_by_key(np.array([7, 3, 7]), num_keys=8).groups.tolist()
+    [1, 0, 1]
+    """
+    k = np.asarray(key, dtype=np.int64).reshape(-1)
+    m = k.size
+    if m == 0:
+        z = np.zeros(0, np.int64)
+        return Groups(z, z.copy(), z.copy(), z.copy())
+    if num_keys is not None and num_keys <= max(4 * m, 1 << 16):
+        cnt = np.bincount(k, minlength=num_keys)
+        keys = np.flatnonzero(cnt)
+        rank = np.zeros(cnt.size, np.int64)
+        rank[keys] = np.arange(keys.size)
+        groups = rank[k]
+        first = np.full(keys.size, m, np.int64)
+        np.minimum.at(first, groups, np.arange(m, dtype=np.int64))
+        return Groups(keys.astype(np.int64), groups, first, cnt[keys].astype(np.int64))
+    order = np.argsort(k, kind="stable" if stable else "quicksort")
+    sk = k[order]
+    new = np.r_[True, sk[1:] != sk[:-1]]
+    starts = np.flatnonzero(new)
+    groups = np.empty(m, np.int64)
+    groups[order] = np.cumsum(new) - 1
+    counts = np.diff(np.r_[starts, m]).astype(np.int64)
+    return Groups(sk[starts], groups, order[starts].astype(np.int64), counts)
+
+
+def coalesce(
+    edge_index: Any,
+    edge_attr: Mapping[str, Any] | None,
+    num_nodes: int,
+    *,
+    reduce: Mapping[str, Any] | None = None,
+    merge_by: Sequence[str] = (),
+    default: str = "mean",
+) -> tuple[np.ndarray, dict[str, np.ndarray], Groups]:
+    """Make edges undirected (``u < v``), drop self-loops and merge parallel edges.
+
+    Parameters
+    ----------
+    edge_index : int ``[2, E]``
+    edge_attr : mapping of str to ``[E, ...]`` arrays, optional
+    num_nodes : int
+    reduce : mapping, optional
+        Column -> reduction (``"sum"``, ``"max"``, ``"min"``, ``"mean"``,
+        ``"first"`` or anything :func:`graphseg.graphs.group_reduce` takes).
+    merge_by : sequence of str
+        Columns that must also agree for two edges to merge (kept as is).
+    default : str
+        Reduction of numeric columns not in ``reduce``; other columns keep the first value.
+
+    Returns
+    -------
+    edge_index : int64 ``[2, G]``
+        Sorted by ``(u, v)`` (then by ``merge_by``).
+    edge_attr : dict
+        Reduced columns plus ``multiplicity`` (edges merged; summed if present).
+    groups : Groups
+        Over the kept (non-self-loop) edges.
+
+    Examples
+    --------
+    >>> ei, attr, _ = coalesce(np.array([[1, 0, 2], [0, 1, 2]]), {"weight": np.array([0.5, 0.7, 1.0])}, 3, reduce={"weight": "max"})
+    >>> ei.tolist(), attr["weight"].tolist(), attr["multiplicity"].tolist()
+    ([[0], [1]], [0.7], [2])
+    """
+    from .coarsen import group_reduce
+
+    ei = np.asarray(edge_index, dtype=np.int64).reshape(2, -1)
+    cols = {k: np.asarray(v) for k, v in (edge_attr or {}).items()}
+    keep = ei[0] != ei[1]
+    lo = np.minimum(ei[0], ei[1])[keep]
+    hi = np.maximum(ei[0], ei[1])[keep]
+    cols = {k: v[keep] for k, v in cols.items()}
+    parts: list[np.ndarray] = [lo, hi]
+    sizes = [max(num_nodes, 1), max(num_nodes, 1)]
+    for name in merge_by:
+        if name in cols and lo.size:
+            _, code = np.unique(cols[name], return_inverse=True)
+            parts.append(code.reshape(-1))
+            sizes.append(int(code.max()) + 1)
+    g = group_by_key(combine_keys(parts, sizes))
+    table = dict(reduce or {})
+    mult = cols.pop("multiplicity", np.ones(lo.size, np.int64))
+    out: dict[str, np.ndarray] = {}
+    for name, col in cols.items():
+        if name in merge_by:
+            out[name] = col[g.first]
+            continue
+        how = table.get(name, default if col.dtype.kind in "biuf" else "first")
+        out[name] = group_reduce(col, g.groups, g.num_groups, how)
+    out["multiplicity"] = group_reduce(np.asarray(mult, np.int64), g.groups, g.num_groups, "sum")
+    new_ei = np.stack([lo[g.first], hi[g.first]]) if g.num_groups else np.zeros((2, 0), np.int64)
+    return new_ei.astype(np.int64), out, g
