@@ -103,6 +103,12 @@ def test_third_stage_from_yaml_through_the_cli(outside_plugin, scene_dir, tmp_pa
     assert g.num_nodes == 2 and result.num_objects == 1
     for graph in result.graphs:
         assert (graph.node_attr["object"] == 1).all()
+    # the output folder's GraphML of that stage holds the criterion's edges and every node's object id
+    from graphseg.graphs import read_graphml
+
+    gml = read_graphml(out / "graphs" / "stage2.graphml")
+    assert (gml.edge_attr["criterion"] == "centroid_radius").sum() == (crit == "centroid_radius").sum()
+    assert (gml.node_attr["object"] == 1).all()
 
 
 def test_third_stage_with_a_small_radius_adds_no_edge(outside_plugin, scene_dir, tmp_path):
