@@ -62,6 +62,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--objects", type=int, default=6)
     s.add_argument("--views", type=int, default=8)
     s.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
+    s.add_argument("--arc", type=float, default=360.0, metavar="DEG", help="cameras on an arc of DEG degrees (a narrow wrist-camera sweep) instead of the full ring (default 360)")
+    s.add_argument("--no-depth", action="store_true", help="write RGB, intrinsics and ground truth only: no depth, no poses (an RGB-only scene)")
+    s.add_argument("--no-intrinsics", action="store_true", help="with --no-depth: leave out K too")
 
     d = sub.add_parser("demo", help="synthesise a scene, segment it, evaluate and write a report")
     d.add_argument("-o", "--out", default="graphseg-demo")
@@ -239,11 +242,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int]) -> Any:
+def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], arc: float = 360.0) -> Any:
     """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
     from .sim.pybullet_scenes import synthesize
 
-    return synthesize(seed=seed, objects=objects, views=views, size=size)
+    return synthesize(seed=seed, objects=objects, views=views, size=size, arc_deg=arc)
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
@@ -253,7 +256,15 @@ def cmd_synth(args: argparse.Namespace) -> int:
     out = Path(args.out)
     _check_output_target(out)
     t = time.perf_counter()
-    scene = _synthesize(args.seed, args.objects, args.views, size)
+    if not 0 < args.arc <= 360:
+        raise BadInput(f"--arc: expected degrees in (0, 360] (got {args.arc:g})")
+    if args.no_intrinsics and not args.no_depth:
+        raise BadInput("--no-intrinsics: only with --no-depth")
+    scene = _synthesize(args.seed, args.objects, args.views, size, args.arc)
+    if args.no_depth:
+        from .sim.strip import rgb_only
+
+        scene = rgb_only(scene, keep_intrinsics=not args.no_intrinsics)
     try:
         write_scene_folder(scene, out, overwrite=True)
     except OSError as err:

@@ -31,6 +31,7 @@ matchers.register("sift", "graphseg.backends.matchers:SiftMatcher")
 
 lifters = Registry("lifter", group="graphseg.lifters")
 lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
+lifters.register("sfm", "graphseg.backends.sfm:SfmLifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")
