@@ -306,6 +306,22 @@ def scale_reconstruction(rec: SfmReconstruction, scene: Scene) -> tuple[SfmRecon
     return out, {"metric": False, "factor": float(s), "method": f"median camera-to-point distance scaled to {NOMINAL_DISTANCE} m (NOMINAL_DISTANCE)"}
 
 
+def _fill_view(points: np.ndarray, conf: np.ndarray, rgb: np.ndarray, T: np.ndarray, K: np.ndarray, confidence: float, replace: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Fill a world point map's holes per colour region (camera-frame depth, then back to the world)."""
+    from ..scene import backproject
+    from .densify import color_regions, fill_depth_by_regions
+
+    cam = ((points.astype(np.float64) - T[:3, 3]) @ T[:3, :3])[..., 2]
+    z = fill_depth_by_regions(cam, color_regions(rgb), replace=replace)
+    new = (np.ones(z.shape, bool) if replace else ~np.isfinite(points).all(-1)) & np.isfinite(z) & (z > 0)
+    filled = backproject(np.where(new, z, 0).astype(np.float32), K, T)
+    p = points.copy()
+    c = conf.copy()
+    c[new & ~np.isfinite(points).all(-1)] = confidence
+    p[new] = filled[new]
+    return p, c
+
+
 class SfmLifter:
     """The ``sfm`` lifter: SfM cameras + stereo / triangulated depth for RGB-only scenes.
 
@@ -320,8 +336,17 @@ class SfmLifter:
     max_neighbours : int
         Stereo pairs fused per view.
     sparse_radius : int
-        A triangulated point fills a ``(2 r + 1)^2`` pixel block where stereo gave
-        nothing (r = 1: every 2-pixel stride of the 3D stage still sees it).
+        A triangulated point fills a ``(2 r + 1)^2`` pixel block where nothing
+        else gave a point (r = 1: every 2-pixel stride of the 3D stage still sees it).
+    fill : "planes", True or False
+        ``"planes"``: every colour superpixel with enough stereo or
+        triangulated points becomes one plane in inverse depth (holes filled,
+        known pixels replaced; depth edges then follow colour edges, which the
+        geometric segmenter needs: stereo blurs depth edges). True: fill holes
+        only. False: no filling.
+        (:func:`graphseg.backends.densify.fill_depth_by_regions`.)
+    fill_confidence : float
+        Confidence of pixels that only the fill gave a point.
     seed : int
     """
 
@@ -333,11 +358,15 @@ class SfmLifter:
         min_tri_angle: float = 2.0,
         num_threads: int = 2,
         stereo: bool = True,
-        max_pair_angle: float = 20.0,
+        max_pair_angle: float = 45.0,
         max_neighbours: int = 4,
         sparse_radius: int = 1,
+        fill: bool | str = "planes",
+        fill_confidence: float = 0.25,
         seed: int | None = 0,
     ) -> None:
+        self.fill = fill
+        self.fill_confidence = fill_confidence
         self.peak_threshold = peak_threshold
         self.min_tri_angle = min_tri_angle
         self.num_threads = num_threads
@@ -380,15 +409,22 @@ class SfmLifter:
             pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
             conf = [np.zeros((h, w), np.float32) for _ in rgb]
             info = {}
+        seeds = sparse_point_maps(rec.points, rec.observations, (h, w), radius=0)
         sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=self.sparse_radius)
         views = []
         for i, v in enumerate(scene.views):
             p = pts[i].copy()
             c = conf[i].copy()
-            fill = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
-            p[fill] = sparse[i][fill]
-            c[fill] = 0.5
-            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": float(np.isfinite(pts[i]).all(-1).mean())}))
+            dense = np.isfinite(p).all(-1)
+            seed = ~dense & np.isfinite(seeds[i]).all(-1)
+            p[seed] = seeds[i][seed]
+            c[seed] = 0.5
+            if self.fill:
+                p, c = _fill_view(p, c, rgb[i], poses[i], Ks[i], self.fill_confidence, self.fill == "planes")
+            rest = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
+            p[rest] = sparse[i][rest]
+            c[rest] = 0.5
+            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": float(dense.mean())}))
         meta = {
             **scene.meta,
             "scale": scale,
