@@ -56,7 +56,7 @@ def test_lifter_metric_with_known_poses(arc_scene):
 
 
 def test_lifter_normalised_scale_without_poses(arc_scene):
-    out = SfmLifter(stereo=False)(rgb_only(arc_scene, keep_intrinsics=False))
+    out = SfmLifter(stereo=False, fill=False, sparse_radius=0)(rgb_only(arc_scene, keep_intrinsics=False))
     assert out.meta["scale"]["metric"] is False
     d = [np.linalg.norm(v.points[np.isfinite(v.points).all(-1)] - v.cam_to_world[:3, 3], axis=1) for v in out.views]
     assert np.median(np.concatenate(d)) == pytest.approx(NOMINAL_DISTANCE, rel=0.05)
@@ -83,7 +83,7 @@ def test_cli_rgb_only_run_and_failure(arc_scene, tmp_path, capsys):
     result, _ = read_output(tmp_path / "out")
     gt_points = [v.camera_points() @ v.cam_to_world[:3, :3].T + v.cam_to_world[:3, 3] for v in arc_scene.views]
     m = evaluate(result.labels, [v.instances for v in arc_scene.views], gt_points)
-    assert m["mean"]["iou"] >= 0.5  # one id per object across views, over every pixel with true depth
+    assert m["mean"]["iou"] >= 0.7  # one id per object across views, over every pixel with true depth
     # a scene SfM cannot register: exit 2, one line
     flat = rgb_only(Scene([View(f"{i}", np.full((60, 80, 3), 90, np.uint8)) for i in range(3)]))
     write_scene_folder(flat, tmp_path / "flat")
