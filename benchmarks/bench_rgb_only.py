@@ -1,9 +1,10 @@
 """RGB-only input: the ``sfm`` lifter (structure from motion + stereo) against the same scenes given depth.
 
 Scenes
-    * synthetic pybullet scenes, 640x480, 5 objects, seeds 200 and 201:
-      narrow arcs (a wrist-camera sweep) of 35 degrees / 5 views, 70 degrees / 8 views
-      and 50 degrees / 3, 5, 10 views, and full 360-degree rings of 3, 5 and 10 views.
+    * synthetic pybullet scenes, 640x480, 5 objects: narrow arcs (a wrist-camera
+      sweep) of 35 degrees / 5 views and 70 degrees / 8 views (seeds 200 and 201),
+      50 degrees / 3, 5, 10 views, and full 360-degree rings of 3, 5 and 10 views
+      (seed 200).
       RGB-only = depth, poses *and* intrinsics removed (``graphseg.sim.strip.rgb_only``).
     * YCB-Video 0001 and 0002 (10 views over the 20 frames, ``../shared/data/ycbv``,
       skipped if absent): depth hidden (intrinsics and poses kept, so the scale is
@@ -46,6 +47,9 @@ sys.path.insert(0, os.path.dirname(__file__))
 from _common import print_table, write_json  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
+ROOT = Path(__file__).resolve().parents[1]
+# subprocesses import graphseg from this checkout
+ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
 SEEDS = (200, 201)
 SYNTH = [
     ("arc35-5", 35.0, 5),
@@ -153,7 +157,7 @@ def cli_timing(tmp: Path) -> dict:
         write_rgb(folder / f"{v.name}.png", v.rgb)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "graphseg.cli", "run", str(folder), "-o", str(tmp / "out"), "--quiet"], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-m", "graphseg.cli", "run", str(folder), "-o", str(tmp / "out"), "--quiet"], capture_output=True, text=True, env=ENV)
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return {
@@ -168,7 +172,9 @@ def cli_timing(tmp: Path) -> dict:
 def specs(quick: bool) -> list[dict]:
     out = []
     for seed in SEEDS[:1] if quick else SEEDS:
-        for name, arc, n in SYNTH[:2] if quick else SYNTH:
+        for k, (name, arc, n) in enumerate(SYNTH[:2] if quick else SYNTH):
+            if seed != SEEDS[0] and k >= 2:
+                continue  # the second seed for the two acceptance arcs only (CPU time on the shared machine)
             for mode in ("depth", "rgb"):
                 out.append({"kind": "synth", "scene": f"{name} s{seed}", "group": name, "seed": seed, "arc": arc, "views": n, "mode": mode})
     if not quick:
@@ -190,7 +196,7 @@ def main(argv=None):
         return 0
     rows = []
     for spec in specs(args.quick):
-        proc = subprocess.run([sys.executable, __file__, "--one", json.dumps(spec)], capture_output=True, text=True)
+        proc = subprocess.run([sys.executable, __file__, "--one", json.dumps(spec)], capture_output=True, text=True, env=ENV)
         line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
         if not line:
             print(proc.stdout[-2000:], proc.stderr[-4000:], file=sys.stderr)
