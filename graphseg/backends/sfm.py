@@ -176,6 +176,15 @@ def run_sfm(
     pycolmap = require("pycolmap", "sfm")
     import cv2
 
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = max(level, 2)  # COLMAP's progress log is noise on a user's terminal
+    try:
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed)
+    finally:
+        pycolmap.logging.minloglevel = level
+
+
+def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, num_threads, seed, known)
@@ -394,9 +403,13 @@ class SfmLifter:
         return scale_reconstruction(rec, scene)
 
     def __call__(self, scene: Scene) -> Scene:
+        rec, scale = self.reconstruct(scene)
+        return self.point_maps(scene, rec, scale)
+
+    def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
+        """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
         from .stereo import sparse_point_maps, stereo_depths
 
-        rec, scale = self.reconstruct(scene)
         rgb = [v.rgb for v in scene.views]
         Ks = [np.asarray(k) for k in rec.K]  # type: ignore[arg-type]
         poses = [np.asarray(T) for T in rec.cam_to_world]  # type: ignore[arg-type]
