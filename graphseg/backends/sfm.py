@@ -177,7 +177,7 @@ def run_sfm(
     import cv2
 
     level = pycolmap.logging.minloglevel
-    pycolmap.logging.minloglevel = max(level, 2)  # COLMAP's progress log is noise on a user's terminal
+    pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
         return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed)
     finally:
