@@ -189,13 +189,21 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="the two acceptance arcs, one seed")
     ap.add_argument("--json", default="benchmarks/results/rgb_only.json")
+    ap.add_argument("--groups", nargs="+", help="rerun only these scene groups and merge them into the existing JSON")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.one:
         print("RESULT " + json.dumps(one(json.loads(args.one)), default=float), flush=True)
         return 0
     rows = []
-    for spec in specs(args.quick):
+    todo = specs(args.quick)
+    old_cli = None
+    if args.groups:
+        old = json.loads(Path(args.json).read_text())
+        rows = [r for r in old["rows"] if r["group"] not in args.groups]
+        old_cli = old.get("cli_8_views")
+        todo = [s for s in todo if s["group"] in args.groups]
+    for spec in todo:
         proc = subprocess.run([sys.executable, __file__, "--one", json.dumps(spec)], capture_output=True, text=True, env=ENV)
         line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
         if not line:
@@ -207,8 +215,11 @@ def main(argv=None):
         print(f"{r['scene']:16s} {r['mode']:8s} iou {r.get('iou') or float('nan'):.3f} lift {r.get('times', {}).get('lift', float('nan')):.1f}s {r.get('error', '')}", flush=True)
     import tempfile
 
-    with tempfile.TemporaryDirectory() as tmp:
-        cli = cli_timing(Path(tmp))
+    if old_cli is not None:
+        cli = old_cli
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            cli = cli_timing(Path(tmp))
     print(f"CLI run, 8 views 640x480 RGB-only: exit {cli['exit']}, {cli['wall_s']:.1f} s wall, {cli['cpu_s']:.1f} s CPU, {cli['peak_rss_mb']:.0f} MB peak RSS")
     table = summarise(rows)
     cols = ["scenes", "n", "registered", "rot_err_deg", "centre_err_rel", "depth_err_med", "coverage", "dense", "iou_depth", "iou_rgb", "f1_rgb", "util_rgb", "lift_s", "total_s", "cpu_s", "peak_rss_mb"]

@@ -143,6 +143,7 @@ def run_sfm(
     min_tri_angle: float = 2.0,
     num_threads: int = 2,
     seed: int = 0,
+    attempts: int = 3,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -162,6 +163,10 @@ def run_sfm(
         sweep at 1.2 m).
     num_threads : int
     seed : int
+    attempts : int
+        Incremental mapping is randomised (and multi-threaded): when a view
+        stays unregistered it is rerun from the same matches with the next
+        seed, up to this many times; the model with the most views is kept.
 
     Returns
     -------
@@ -179,12 +184,12 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed, attempts)
     finally:
         pycolmap.logging.minloglevel = level
 
 
-def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int) -> SfmReconstruction:
+def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, attempts: int) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, num_threads, seed, known)
@@ -211,12 +216,21 @@ def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarr
         if known and mode == pycolmap.CameraMode.PER_IMAGE:
             _set_per_image_cameras(pycolmap, db, names, Ks)
         pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
-        (root / "sparse").mkdir()
-        models = pycolmap.incremental_mapping(db, root / "images", root / "sparse", options=inc)
-    if not models:
-        return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
-    rec = max(models.values(), key=lambda r: r.num_reg_images())
-    return _convert(rec, names)
+        best = None
+        for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
+            out = root / f"sparse{attempt}"
+            out.mkdir()
+            inc.random_seed = seed + attempt
+            models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
+            if models:
+                rec = max(models.values(), key=lambda r: r.num_reg_images())
+                if best is None or rec.num_reg_images() > best.num_reg_images():
+                    best = rec
+            if best is not None and best.num_reg_images() == n:
+                break
+        if best is None:
+            return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
+        return _convert(best, names)
 
 
 def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
