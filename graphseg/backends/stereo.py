@@ -171,14 +171,6 @@ def pair_points(
 
     R = np.asarray(R, np.float64)
     T = np.asarray(T, np.float64).reshape(3)
-    c2 = -R.T @ T  # camera 2's centre in camera 1's frame
-    axis = int(np.argmax(np.abs(c2[:2])))
-    if c2[axis] < 0:  # make camera 1 the left (upper) one: OpenCV then keeps both focal lengths positive
-        q2, q1, info = pair_points(
-            img2, img1, K2, K1, R.T, -R.T @ T, D1=D2, D2=D1, depth_range=depth_range,
-            block_size=block_size, lr_tolerance=lr_tolerance, max_disparities=max_disparities, max_zoom=max_zoom,
-        )
-        return q1, q2, {**info, "swapped": True}
     h, w = img1.shape[:2]
     D1 = np.zeros(5) if D1 is None else np.asarray(D1, np.float64)
     D2 = np.zeros(5) if D2 is None else np.asarray(D2, np.float64)
@@ -217,7 +209,7 @@ def pair_points(
         z2 = _uncanon(np.where(dr_ok > 0, f * baseline / dr_ok, np.nan).astype(np.float32), vertical, flip)
     p1 = _to_camera(z1, K1, D1, R1, P1[:, :3], (h, w))
     p2 = _to_camera(z2, K2, D2, R2, P2[:, :3], (h, w))
-    return p1, p2, {"vertical": bool(vertical), "flip": bool(flip), "baseline": baseline, "focal": f, "swapped": False}
+    return p1, p2, {"vertical": bool(vertical), "flip": bool(flip), "baseline": baseline, "focal": f}
 
 
 def fuse_depths(estimates: Sequence[np.ndarray], *, rel_tolerance: float = 0.02, min_agree: int = 2) -> tuple[np.ndarray, np.ndarray]:
