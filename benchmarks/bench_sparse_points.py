@@ -36,7 +36,11 @@ from _common import print_table, write_json  # noqa: E402
 def measure(scene, points, cfg, tau=5e-5):
     from graphseg.graphs.chamfer import node_point_sets
     from graphseg.method.background import background_masks
-    from graphseg.method.sparse_chamfer import chamfer_edges, point_spacing, spacing_aware_chamfer_edges
+    from graphseg.method.sparse_chamfer import (
+        chamfer_edges,
+        point_spacing,
+        spacing_aware_chamfer_edges,
+    )
 
     labels, owner = [], []
     for v, view in enumerate(scene.views):
