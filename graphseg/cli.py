@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds); --config overrides it key by key")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
-    r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has no point maps)")
+    r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has depth, sfm when it has none)")
     r.add_argument("--backend-option", action="append", default=[], metavar="NAME.KEY=VALUE", help="option KEY of backend NAME (VALUE read as a YAML scalar); repeatable; stored in config backends.options")
     r.add_argument("--masks", help="folder of precomputed masks per view (NAME.png label images or NAME.npz bool stacks); implies --segmenter precomputed")
     r.add_argument("--matches", help="folder of precomputed matches per view pair (VIEWI__VIEWJ.npz, docs/formats.md); implies --matcher precomputed-matches")
@@ -84,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--objects", type=int, default=6, help="objects dropped on the table (1..16); those that fall off are reported")
     s.add_argument("--views", type=int, default=8, help="number of views (1..360)")
     s.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
+    s.add_argument("--arc", type=float, default=360.0, metavar="DEG", help="cameras on an arc of DEG degrees (a narrow wrist-camera sweep) instead of the full ring (default 360)")
+    s.add_argument("--no-depth", action="store_true", help="write RGB, intrinsics and ground truth only: no depth, no poses (an RGB-only scene)")
+    s.add_argument("--no-intrinsics", action="store_true", help="with --no-depth: leave out K too")
     _common(s, overwrite=True)
 
     d = sub.add_parser("demo", help="synthesise a scene, segment it, evaluate and write a report")
@@ -304,11 +307,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int]) -> Any:
+def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], arc: float = 360.0) -> Any:
     """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
     from .sim.pybullet_scenes import synthesize
 
-    return synthesize(seed=seed, objects=objects, views=views, size=size)
+    return synthesize(seed=seed, objects=objects, views=views, size=size, arc_deg=arc)
 
 
 def _check_synth_args(args: argparse.Namespace) -> None:
@@ -320,6 +323,10 @@ def _check_synth_args(args: argparse.Namespace) -> None:
         raise BadInput(f"--objects: expected 1..{MAX_OBJECTS} (got {args.objects})")
     if not 1 <= args.views <= 360:
         raise BadInput(f"--views: expected 1..360 (got {args.views})")
+    if not 0 < getattr(args, "arc", 360.0) <= 360:
+        raise BadInput(f"--arc: expected degrees in (0, 360] (got {args.arc:g})")
+    if getattr(args, "no_intrinsics", False) and not getattr(args, "no_depth", False):
+        raise BadInput("--no-intrinsics: only with --no-depth")
 
 
 def _fell_off(scene: Any, args: argparse.Namespace) -> None:
@@ -336,7 +343,11 @@ def cmd_synth(args: argparse.Namespace) -> int:
     _check_synth_args(args)
     out = check_target(args.out, "synth", overwrite=args.overwrite)
     t = time.perf_counter()
-    scene = _synthesize(args.seed, args.objects, args.views, size)
+    scene = _synthesize(args.seed, args.objects, args.views, size, args.arc)
+    if args.no_depth:
+        from .sim.strip import rgb_only
+
+        scene = rgb_only(scene, keep_intrinsics=not args.no_intrinsics)
     with atomic_folder(out, "synth") as tmp:
         fill_scene_folder(scene, tmp)
     _fell_off(scene, args)

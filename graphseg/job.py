@@ -287,6 +287,8 @@ def run_job(
     check_memory(scene, str(info.get("scene")))
     t = time.perf_counter()
     lifter_used = backends["lifter"] if (lifter is not None or not scene.has_points) else None
+    if lifter is None and not scene.has_points and not scene.has_depth and cfg.backends.lifter == "rgbd":
+        lifter_used = None  # RGB-only and no lifter chosen: lift() picks structure from motion ("sfm")
     scene = lift(scene, lifter_used, cfg)  # lifted once: run() reuses it and the metrics need its points
     timings["lift"] = time.perf_counter() - t
     t = time.perf_counter()

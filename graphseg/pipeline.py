@@ -68,8 +68,11 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
         if "lifter" not in scene.meta:
             scene = Scene(scene.views, scene.objects, scene.name, {**scene.meta, "lifter": "given"})
         return scene
-    lifted = _resolve(lifters, lifter or cfg.backends.lifter, cfg)(scene)
-    lifted.meta["lifter"] = _name(lifter, cfg.backends.lifter)
+    default = cfg.backends.lifter
+    if lifter is None and default == "rgbd" and not scene.has_depth:
+        default = "sfm"  # RGB-only: structure from motion + stereo (graphseg.backends.sfm)
+    lifted = _resolve(lifters, lifter or default, cfg)(scene)
+    lifted.meta["lifter"] = _name(lifter, default)
     return lifted
 
 

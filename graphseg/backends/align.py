@@ -109,6 +109,8 @@ def _weighted_umeyama(src: np.ndarray, dst: np.ndarray, w: np.ndarray | None, *,
         raise ValueError(f"expected src and dst of shape [N, 3] (got {list(src.shape)} and {list(dst.shape)})")
     if len(src) < 3:
         raise ValueError(f"expected at least 3 point pairs (got {len(src)})")
+    if not (np.isfinite(src).all() and np.isfinite(dst).all()):
+        raise ValueError("expected finite src and dst (got NaN or inf)")
     w = np.ones(len(src)) if w is None else np.asarray(w, np.float64)
     w = w / w.sum()
     mu_s, mu_d = w @ src, w @ dst

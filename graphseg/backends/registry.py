@@ -39,6 +39,7 @@ lifters.register("rgbd", "graphseg.backends.lifters:RGBDLifter")
 lifters.register("precomputed-points", "graphseg.backends.precomputed:PrecomputedLifter")
 lifters.register("dust3r", "graphseg.backends.dust3r:DUSt3RLifter")
 lifters.register("da3", "graphseg.backends.da3:DA3Lifter")
+lifters.register("sfm", "graphseg.backends.sfm:SfmLifter")
 
 features = Registry("feature extractor", group="graphseg.features")
 features.register("color", "graphseg.backends.features:ColorFeatures")

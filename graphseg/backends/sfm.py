@@ -1,0 +1,460 @@
+"""The ``sfm`` lifter: cameras and 3D points from plain RGB images, with no weights.
+
+Structure from motion with COLMAP (extra ``sfm`` = ``pycolmap``, CPU):
+SIFT features with a low ``peak_threshold`` (renders and low-texture tabletop
+images give too few keypoints with COLMAP's default), exhaustive matching and
+incremental mapping with a low minimum triangulation angle (narrow wrist-camera
+sweeps and 3 - 20 views). Known intrinsics are used, and held fixed, when
+every view has ``K``. Everything runs in a temporary folder.
+
+Per-view depth then comes from :mod:`graphseg.backends.stereo`: dense
+semi-global matching on pairs rectified with the SfM poses wherever a
+neighbour view is close enough, and the triangulated SfM points elsewhere.
+
+Scale
+-----
+SfM recovers the scene only up to a similarity. When every view has a pose,
+the SfM camera centres are aligned to them (:func:`graphseg.backends.align.umeyama`)
+and the result is metric. Otherwise the reconstruction is scaled so that the
+median camera-to-point distance equals :data:`NOMINAL_DISTANCE` (0.6 m, a
+tabletop / wrist-camera working distance), so the metre thresholds of the
+config apply at about the right size. ``scene.meta["scale"]`` records
+``{"metric": bool, "factor": float, "method": str}``.
+
+Examples
+--------
+>>> SfmLifter().name, NOMINAL_DISTANCE
+('sfm', 0.6)
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..registry import require
+from ..scene import Scene, SceneError
+from .align import umeyama
+
+__all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "not_registered_message"]
+
+#: Median camera-to-point distance (m) a reconstruction of unknown scale is scaled to.
+NOMINAL_DISTANCE = 0.6
+
+
+@dataclass
+class SfmReconstruction:
+    """What :func:`run_sfm` recovered, in graphseg conventions (OpenCV axes, pixel centres at integers).
+
+    Attributes
+    ----------
+    registered : bool ``[N]``
+    K : list of float64 ``[3, 3]`` (None where not registered)
+    dist : list of float64 ``[k]`` OpenCV distortion coefficients (None where not registered)
+    cam_to_world : list of float64 ``[4, 4]`` (None where not registered)
+    points : float64 ``[P, 3]`` triangulated points
+    observations : list of (float64 ``[M, 2]`` pixel xy, int64 ``[M]`` index into ``points``) per view
+    reprojection_error : float
+        Mean reprojection error in pixels.
+    """
+
+    registered: np.ndarray
+    K: list[np.ndarray | None]
+    dist: list[np.ndarray | None]
+    cam_to_world: list[np.ndarray | None]
+    points: np.ndarray
+    observations: list[tuple[np.ndarray, np.ndarray]]
+    reprojection_error: float = float("nan")
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def num_registered(self) -> int:
+        return int(np.count_nonzero(self.registered))
+
+    def transformed(self, s: float, R: np.ndarray, t: np.ndarray) -> SfmReconstruction:
+        """The reconstruction moved by the similarity ``x -> s R x + t`` (a new object)."""
+        R = np.asarray(R, np.float64)
+        poses = []
+        for T in self.cam_to_world:
+            if T is None:
+                poses.append(None)
+                continue
+            U = np.eye(4)
+            U[:3, :3] = R @ T[:3, :3]
+            U[:3, 3] = s * R @ T[:3, 3] + t
+            poses.append(U)
+        pts = s * self.points @ R.T + t if len(self.points) else self.points
+        return SfmReconstruction(self.registered.copy(), list(self.K), list(self.dist), poses, pts, list(self.observations), self.reprojection_error, dict(self.info))
+
+
+def not_registered_message(registered: int, total: int) -> str:
+    """The one-line advice when SfM registers too few views.
+
+    Examples
+    --------
+    >>> "registered 1 of 4 views; " in not_registered_message(1, 4)
+    True
+    """
+    return (
+        f"structure from motion registered {registered} of {total} views; every view must share texture with "
+        "a neighbour: take more views with more overlap (about 10-20 degrees apart), or provide depth with "
+        "intrinsics and poses (lifter rgbd)"
+    )
+
+
+def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, known_K: bool) -> tuple[Any, Any, Any]:
+    ext = pycolmap.FeatureExtractionOptions()
+    ext.sift.peak_threshold = peak_threshold
+    ext.sift.max_num_features = 8192
+    ext.num_threads = num_threads
+    ext.use_gpu = False
+    match = pycolmap.FeatureMatchingOptions()
+    match.num_threads = num_threads
+    match.use_gpu = False
+    inc = pycolmap.IncrementalPipelineOptions()
+    inc.num_threads = num_threads
+    inc.random_seed = seed
+    inc.min_model_size = 2
+    inc.multiple_models = False
+    inc.extract_colors = False
+    inc.min_num_matches = 15
+    inc.mapper.init_min_tri_angle = min_tri_angle
+    inc.mapper.init_min_num_inliers = 50
+    inc.mapper.abs_pose_min_num_inliers = 15
+    inc.mapper.filter_min_tri_angle = min_tri_angle / 4
+    inc.mapper.ba_local_min_tri_angle = min_tri_angle / 4
+    inc.triangulation.min_angle = min_tri_angle / 4
+    if known_K:
+        inc.ba_refine_focal_length = False
+        inc.ba_refine_principal_point = False
+        inc.ba_refine_extra_params = False
+    return ext, match, inc
+
+
+def run_sfm(
+    images: list[np.ndarray],
+    K: list[np.ndarray] | None = None,
+    *,
+    peak_threshold: float = 0.002,
+    min_tri_angle: float = 2.0,
+    num_threads: int = 2,
+    seed: int = 0,
+    attempts: int = 3,
+) -> SfmReconstruction:
+    """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
+
+    Parameters
+    ----------
+    images : list of uint8 ``[H, W, 3]``
+    K : list of ``[3, 3]``, optional
+        Known intrinsics (graphseg convention: pixel centres at integers),
+        held fixed. Without them one shared ``SIMPLE_RADIAL`` camera is
+        estimated, starting from COLMAP's focal-length guess (1.2 x the larger side).
+    peak_threshold : float
+        SIFT detector threshold (COLMAP's default 0.0067 finds too few
+        keypoints on renders).
+    min_tri_angle : float
+        Degrees; the initial pair needs this triangulation angle, and new points
+        a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
+        sweep at 1.2 m).
+    num_threads : int
+    seed : int
+    attempts : int
+        Incremental mapping is randomised (and multi-threaded): when a view
+        stays unregistered it is rerun from the same matches with the next
+        seed, up to this many times; the model with the most views is kept.
+
+    Returns
+    -------
+    SfmReconstruction
+        The largest model; views it does not contain are marked unregistered.
+
+    Notes
+    -----
+    Exhaustive matching: O(N^2) image pairs. About 2 s for 8 renders of
+    640 x 480 on 2 CPU cores.
+    """
+    pycolmap = require("pycolmap", "sfm")
+    import cv2
+
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
+    try:
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed, attempts)
+    finally:
+        pycolmap.logging.minloglevel = level
+
+
+def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, attempts: int) -> SfmReconstruction:
+    n = len(images)
+    known = K is not None and all(k is not None for k in K)
+    ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, num_threads, seed, known)
+    names = [f"{i:04d}.png" for i in range(n)]
+    with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
+        root = Path(tmp)
+        (root / "images").mkdir()
+        for name, img in zip(names, images):
+            cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+        reader = pycolmap.ImageReaderOptions()
+        mode = pycolmap.CameraMode.SINGLE
+        if known:
+            assert K is not None
+            Ks = [np.asarray(k, np.float64) for k in K]
+            same = all(np.allclose(k, Ks[0]) for k in Ks)
+            mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
+            k0 = Ks[0]
+            reader.camera_model = "PINHOLE"
+            reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
+        else:
+            reader.camera_model = "SIMPLE_RADIAL"
+        db = root / "database.db"
+        pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
+        if known and mode == pycolmap.CameraMode.PER_IMAGE:
+            _set_per_image_cameras(pycolmap, db, names, Ks)
+        pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
+        best = None
+        for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
+            out = root / f"sparse{attempt}"
+            out.mkdir()
+            inc.random_seed = seed + attempt
+            models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
+            if models:
+                rec = max(models.values(), key=lambda r: r.num_reg_images())
+                if best is None or rec.num_reg_images() > best.num_reg_images():
+                    best = rec
+            if best is not None and best.num_reg_images() == n:
+                break
+        if best is None:
+            return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
+        return _convert(best, names)
+
+
+def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
+    """Give every image its own known PINHOLE camera (views with different K)."""
+    with pycolmap.Database.open(db_path) as db:
+        for img in db.read_all_images():
+            k = Ks[names.index(img.name)]
+            cam = db.read_camera(img.camera_id)
+            cam.params = [k[0, 0], k[1, 1], k[0, 2] + 0.5, k[1, 2] + 0.5]
+            cam.has_prior_focal_length = True
+            db.update_camera(cam)
+
+
+def _convert(rec: Any, names: list[str]) -> SfmReconstruction:
+    n = len(names)
+    registered = np.zeros(n, bool)
+    Ks: list[np.ndarray | None] = [None] * n
+    dists: list[np.ndarray | None] = [None] * n
+    poses: list[np.ndarray | None] = [None] * n
+    obs: list[tuple[np.ndarray, np.ndarray]] = [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n
+    ids = sorted(rec.points3D.keys())
+    index = {pid: k for k, pid in enumerate(ids)}
+    pts = np.array([rec.points3D[pid].xyz for pid in ids], np.float64).reshape(-1, 3)
+    for image in rec.images.values():
+        if not image.has_pose or image.name not in names:
+            continue
+        i = names.index(image.name)
+        registered[i] = True
+        cam = rec.cameras[image.camera_id]
+        K = np.asarray(cam.calibration_matrix(), np.float64).copy()
+        K[0, 2] -= 0.5  # COLMAP puts pixel centres at +0.5
+        K[1, 2] -= 0.5
+        Ks[i] = K
+        d = np.zeros(5)
+        if cam.model.name in ("SIMPLE_RADIAL", "RADIAL"):
+            d[0] = cam.params[3]
+            if cam.model.name == "RADIAL":
+                d[1] = cam.params[4]
+        dists[i] = d
+        w2c = np.eye(4)
+        w2c[:3, :] = np.asarray(image.cam_from_world().matrix(), np.float64)
+        poses[i] = np.linalg.inv(w2c)
+        xy, pid = [], []
+        for p2d in image.points2D:
+            if p2d.has_point3D():
+                xy.append(np.asarray(p2d.xy, np.float64) - 0.5)
+                pid.append(index[p2d.point3D_id])
+        obs[i] = (np.array(xy, np.float64).reshape(-1, 2), np.array(pid, np.int64))
+    err = float(rec.compute_mean_reprojection_error()) if len(ids) else float("nan")
+    return SfmReconstruction(registered, Ks, dists, poses, pts, obs, err, {"num_points": len(ids)})
+
+
+def _median_distance(rec: SfmReconstruction) -> float:
+    d = []
+    for T, (_, pid) in zip(rec.cam_to_world, rec.observations):
+        if T is not None and pid.size:
+            d.append(np.linalg.norm(rec.points[pid] - T[:3, 3], axis=1))
+    return float(np.median(np.concatenate(d))) if d else float("nan")
+
+
+def _depth_ranges(rec: SfmReconstruction) -> list[tuple[float, float] | None]:
+    """Per view, the 2nd and 98th percentile depth of its triangulated points (None without points)."""
+    out: list[tuple[float, float] | None] = []
+    for T, (_, pid) in zip(rec.cam_to_world, rec.observations):
+        if T is None or pid.size < 5:
+            out.append(None)
+            continue
+        z = ((rec.points[pid] - T[:3, 3]) @ T[:3, :3])[:, 2]
+        z = z[z > 0]
+        out.append((float(np.percentile(z, 2)), float(np.percentile(z, 98))) if z.size >= 5 else None)
+    return out
+
+
+def scale_reconstruction(rec: SfmReconstruction, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
+    """Metric by similarity alignment when every view has a pose, else the nominal-distance normalisation.
+
+    Returns the moved reconstruction and ``{"metric", "factor", "method"}``
+    (plus ``"residual"``, the RMS camera-centre error in metres, when aligned).
+    """
+    given = [v.cam_to_world for v in scene.views]
+    idx = [i for i in range(len(given)) if rec.registered[i] and given[i] is not None]
+    if all(g is not None for g in given) and len(idx) >= 3:
+        src = np.array([rec.cam_to_world[i][:3, 3] for i in idx])  # type: ignore[index]
+        dst = np.array([np.asarray(given[i], np.float64)[:3, 3] for i in idx])
+        spread = np.linalg.norm(dst - dst.mean(0), axis=1).max()
+        if spread > 1e-6:
+            s, R, t = umeyama(src, dst)
+            out = rec.transformed(s, R, t)
+            res = float(np.sqrt(np.mean(np.sum((np.array([out.cam_to_world[i][:3, 3] for i in idx]) - dst) ** 2, axis=1))))  # type: ignore[index]
+            return out, {"metric": True, "factor": float(s), "method": "similarity alignment of SfM camera centres to the given poses", "residual": res}
+    med = _median_distance(rec)
+    s = NOMINAL_DISTANCE / med if np.isfinite(med) and med > 0 else 1.0
+    first = next(T for T in rec.cam_to_world if T is not None)
+    Rw = first[:3, :3].T  # world frame = the first registered camera
+    out = rec.transformed(s, Rw, -s * Rw @ first[:3, 3])
+    return out, {"metric": False, "factor": float(s), "method": f"median camera-to-point distance scaled to {NOMINAL_DISTANCE} m (NOMINAL_DISTANCE)"}
+
+
+def _fill_view(points: np.ndarray, conf: np.ndarray, rgb: np.ndarray, T: np.ndarray, K: np.ndarray, confidence: float, replace: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Fill a world point map's holes per colour region (camera-frame depth, then back to the world)."""
+    from ..scene import backproject
+    from .densify import color_regions, fill_depth_by_regions
+
+    cam = ((points.astype(np.float64) - T[:3, 3]) @ T[:3, :3])[..., 2]
+    z = fill_depth_by_regions(cam, color_regions(rgb), replace=replace)
+    new = (np.ones(z.shape, bool) if replace else ~np.isfinite(points).all(-1)) & np.isfinite(z) & (z > 0)
+    filled = backproject(np.where(new, z, 0).astype(np.float32), K, T)
+    p = points.copy()
+    c = conf.copy()
+    c[new & ~np.isfinite(points).all(-1)] = confidence
+    p[new] = filled[new]
+    return p, c
+
+
+class SfmLifter:
+    """The ``sfm`` lifter: SfM cameras + stereo / triangulated depth for RGB-only scenes.
+
+    Parameters
+    ----------
+    peak_threshold, min_tri_angle, num_threads :
+        See :func:`run_sfm`.
+    stereo : bool
+        Dense stereo where a neighbour is close (:func:`graphseg.backends.stereo.stereo_depths`).
+    max_pair_angle : float
+        Degrees; neighbours whose viewing directions differ more are not used for stereo.
+    max_neighbours : int
+        Stereo pairs fused per view.
+    sparse_radius : int
+        A triangulated point fills a ``(2 r + 1)^2`` pixel block where nothing
+        else gave a point (r = 1: every 2-pixel stride of the 3D stage still sees it).
+    fill : "planes", True or False
+        ``"planes"``: every colour superpixel with enough stereo or
+        triangulated points becomes one plane in inverse depth (holes filled,
+        known pixels replaced; depth edges then follow colour edges, which the
+        geometric segmenter needs: stereo blurs depth edges). True: fill holes
+        only. False: no filling.
+        (:func:`graphseg.backends.densify.fill_depth_by_regions`.)
+    fill_confidence : float
+        Confidence of pixels that only the fill gave a point.
+    seed : int
+    """
+
+    name = "sfm"
+
+    def __init__(
+        self,
+        peak_threshold: float = 0.002,
+        min_tri_angle: float = 2.0,
+        num_threads: int = 2,
+        stereo: bool = True,
+        max_pair_angle: float = 45.0,
+        max_neighbours: int = 4,
+        sparse_radius: int = 1,
+        fill: bool | str = "planes",
+        fill_confidence: float = 0.25,
+        seed: int | None = 0,
+    ) -> None:
+        self.fill = fill
+        self.fill_confidence = fill_confidence
+        self.peak_threshold = peak_threshold
+        self.min_tri_angle = min_tri_angle
+        self.num_threads = num_threads
+        self.stereo = stereo
+        self.max_pair_angle = max_pair_angle
+        self.max_neighbours = max_neighbours
+        self.sparse_radius = sparse_radius
+        self.seed = 0 if seed is None else int(seed)
+
+    def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
+        """SfM plus scale; raises :class:`SceneError` when a view does not register."""
+        n = len(scene)
+        Ks = [v.K for v in scene.views]
+        rec = run_sfm(
+            [v.rgb for v in scene.views],
+            Ks if all(k is not None for k in Ks) else None,
+            peak_threshold=self.peak_threshold,
+            min_tri_angle=self.min_tri_angle,
+            num_threads=self.num_threads,
+            seed=self.seed,
+        )
+        if rec.num_registered < n or n < 2:
+            missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
+            raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")
+        return scale_reconstruction(rec, scene)
+
+    def __call__(self, scene: Scene) -> Scene:
+        rec, scale = self.reconstruct(scene)
+        return self.point_maps(scene, rec, scale)
+
+    def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
+        """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
+        from .stereo import sparse_point_maps, stereo_depths
+
+        rgb = [v.rgb for v in scene.views]
+        Ks = [np.asarray(k) for k in rec.K]  # type: ignore[arg-type]
+        poses = [np.asarray(T) for T in rec.cam_to_world]  # type: ignore[arg-type]
+        dists = [np.asarray(d) for d in rec.dist]  # type: ignore[arg-type]
+        h, w = scene.views[0].shape
+        if self.stereo:
+            ranges = _depth_ranges(rec)
+            pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=self.max_pair_angle, max_neighbours=self.max_neighbours, depth_ranges=ranges)
+        else:
+            pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
+            conf = [np.zeros((h, w), np.float32) for _ in rgb]
+            info = {}
+        seeds = sparse_point_maps(rec.points, rec.observations, (h, w), radius=0)
+        sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=self.sparse_radius)
+        views = []
+        for i, v in enumerate(scene.views):
+            p = pts[i].copy()
+            c = conf[i].copy()
+            dense = np.isfinite(p).all(-1)
+            seed = ~dense & np.isfinite(seeds[i]).all(-1)
+            p[seed] = seeds[i][seed]
+            c[seed] = 0.5
+            if self.fill:
+                p, c = _fill_view(p, c, rgb[i], poses[i], Ks[i], self.fill_confidence, self.fill == "planes")
+            rest = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
+            p[rest] = sparse[i][rest]
+            c[rest] = 0.5
+            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": float(dense.mean())}))
+        meta = {
+            **scene.meta,
+            "scale": scale,
+            "sfm": {"registered": rec.num_registered, "views": len(scene), "points": int(len(rec.points)), "reprojection_error": rec.reprojection_error, **info},
+        }
+        return Scene(views, dict(scene.objects), scene.name, meta)
