@@ -20,8 +20,12 @@ edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatchEdgeA
 edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3DEdgeAdder")
 edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
 edge_adders.register("dino_similarity", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
+edge_adders.register("depth_repulsion", "graphseg.graphs.repulsion:DepthRepulsion")
+edge_adders.register("view_consensus", "graphseg.graphs.consensus:ViewConsensus")
 
 contractors = Registry("contractor", group="graphseg.contractors")
 contractors.register("star", "graphseg.graphs.contract:StarContraction")
 contractors.register("union_find", "graphseg.graphs.contract:UnionFindContraction")
 contractors.register("scipy", "graphseg.graphs.contract:ScipyContraction")
+contractors.register("constrained", "graphseg.graphs.signed:ConstrainedUnionFindContraction")
+contractors.register("core_attach", "graphseg.graphs.signed:CoreAttachContraction")

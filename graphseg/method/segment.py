@@ -141,7 +141,13 @@ def segment(
             attrs.setdefault("criterion", np.full(es.num_edges, name))
             with_edges = with_edges.add_edges(es.edge_index, attrs)
             info_s["adders"][name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
-        cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=rng)
+        if getattr(contractor, "uses_edge_attr", False):
+            extra = {"node_attr": with_edges.node_attr} if getattr(contractor, "uses_node_attr", False) else {}
+            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=rng, edge_attr=with_edges.edge_attr, **extra)
+        else:  # plain components: repulsive (sign < 0) edges are not links
+            sign = with_edges.edge_attr.get("sign")
+            attract = with_edges.edge_index if sign is None else with_edges.edge_index[:, ~(np.asarray(sign, np.float64) < 0)]
+            cluster = contractor(attract, with_edges.num_nodes, rng=rng)
         with_edges.meta["stage"] = s
         stage_graphs.append(with_edges)
         current = coarsen(with_edges, cluster)
