@@ -47,6 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--masks", help="folder of precomputed masks per view (NAME.png label images or NAME.npz bool stacks); implies --segmenter precomputed")
     r.add_argument("--parts", type=int, help="parts per object for the oracle-parts segmenter (evaluation only)")
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
+    r.add_argument("--method", choices=["graphseg", "graphseg-minus", "maskclustering", "sam3d"], help="method (default from the config: graphseg); maskclustering and sam3d are baselines on the same inputs")
     r.add_argument("--seed", type=int, help="random seed")
     r.add_argument("--quiet", action="store_true", help="no progress bars")
     _views_args(r)
@@ -55,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("out", help="output folder of graphseg run")
     e.add_argument("--scene", help="scene with ground truth (default: the one recorded in run.json)")
     e.add_argument("--json", help="also write the metrics to this JSON file")
+    e.add_argument("--audit", action="store_true", help="also audit the edges against the ground truth (wrong edges per stage, impure masks, min cut per merge error); with --json the audit is written under the key 'audit'")
 
     s = sub.add_parser("synth", help="render a synthetic scene with exact ground truth (needs pybullet: graphseg[sim])")
     s.add_argument("-o", "--out", required=True)
@@ -175,6 +177,8 @@ def _config(args: argparse.Namespace) -> Any:
         cfg = cfg.model_copy(update={"seed": args.seed})
     if getattr(args, "no_3d", False):
         cfg = cfg.without_3d()
+    if getattr(args, "method", None):
+        cfg = cfg.model_copy(update={"method": args.method})
     if getattr(args, "masks", None):
         folder = Path(args.masks)
         if not folder.is_dir():
@@ -233,6 +237,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     metrics = _evaluate(result, scene)
     assert metrics is not None
     print(_metrics_table(metrics))
+    if args.audit:
+        from .audit import audit, format_audit
+
+        metrics = {**metrics, "audit": audit(result, scene)}
+        print(format_audit(metrics["audit"]))
     if args.json:
         Path(args.json).write_text(json.dumps(metrics, indent=2))
         print(f"wrote {args.json}")

@@ -153,6 +153,7 @@ class Config(_Model):
     backends: BackendConfig = Field(default_factory=BackendConfig)
     stages: list[list[str]] = Field(default_factory=lambda: [["pixel_match"], ["chamfer_3d"]])
     contractor: str = "star"
+    method: Literal["graphseg", "graphseg-minus", "maskclustering", "sam3d"] = Field("graphseg", description="graphseg-minus: no 3D stage; maskclustering / sam3d: the baselines of graphseg.method.baselines")
     seed: int | None = 0
     adder_options: dict[str, dict[str, Any]] = Field(default_factory=dict)
 

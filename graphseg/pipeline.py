@@ -21,7 +21,7 @@ from .backends.registry import features as feature_registry
 from .backends.registry import lifters, matchers, segmenters
 from .config import Config
 from .method.pairs import scene_scale, select_pairs
-from .method.segment import segment
+from .method.segment import segment  # noqa: F401  (re-exported for callers of pipeline.segment)
 from .result import Result
 from .scene import Matches, Scene
 
@@ -152,7 +152,9 @@ def run(
         feats = [fx(v) for v in scene.views]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()
-    result = segment(scene, masks, matches, cfg, features=feats)
+    from .method.baselines import run_method
+
+    result = run_method(scene, masks, matches, cfg, features=feats)
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
     result.info["pipeline"] = {

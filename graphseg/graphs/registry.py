@@ -22,6 +22,7 @@ edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarityEdgeAdde
 edge_adders.register("dino_similarity", "graphseg.graphs.features:FeatureSimilarityEdgeAdder")
 edge_adders.register("depth_repulsion", "graphseg.graphs.repulsion:DepthRepulsion")
 edge_adders.register("view_consensus", "graphseg.graphs.consensus:ViewConsensus")
+edge_adders.register("bidirectional_overlap", "graphseg.graphs.overlap:BidirectionalOverlap")
 
 contractors = Registry("contractor", group="graphseg.contractors")
 contractors.register("star", "graphseg.graphs.contract:StarContraction")
