@@ -19,8 +19,9 @@ Examples
 --------
 >>> from graphseg.testing.scenes import two_boxes_scene
 >>> scene, masks, matches = two_boxes_scene()
->>> sam3d(scene, masks, matches).num_objects
-2
+>>> r = sam3d(scene, masks, matches)
+>>> r.config.stages, r.labels[0].shape == scene.views[0].shape
+([['bidirectional_overlap']], True)
 """
 
 from __future__ import annotations
