@@ -102,12 +102,14 @@ def containers(
     return out
 
 
-def consensus_pairs(container: np.ndarray, *, min_views: int = 2, threshold: float = 0.9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def consensus_pairs(container: np.ndarray, *, min_views: int = 2, threshold: float = 0.9, below: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs whose consensus reaches ``threshold`` over at least ``min_views`` views.
 
     Parameters
     ----------
     container : int ``[N, V]`` from :func:`containers`
+    below : bool
+        Return the pairs whose consensus is at most ``threshold`` instead.
 
     Returns
     -------
@@ -130,7 +132,7 @@ def consensus_pairs(container: np.ndarray, *, min_views: int = 2, threshold: flo
     u, v = np.triu_indices(n, 1)
     o, a = obs[u, v], agree[u, v]
     cons = np.where(o > 0, a / np.maximum(o, 1), 0.0)
-    keep = (o >= min_views) & (cons >= threshold)
+    keep = (o >= min_views) & ((cons <= threshold) if below else (cons >= threshold))
     return np.stack([u[keep], v[keep]]).astype(np.int64), cons[keep], o[keep].astype(np.int64)
 
 
@@ -143,18 +145,35 @@ def view_consensus_edges(
     min_views: int = 2,
     min_matches: int = 5,
     min_share: float = 0.5,
+    attract: bool = True,
+    repel_below: float | None = None,
 ) -> EdgeSet:
     """Edges between nodes whose view consensus reaches ``threshold``.
+
+    With ``repel_below``, pairs whose consensus is at most that value (over at
+    least ``min_views`` views) also get cannot-link edges (``sign = -1``,
+    ``weight = 1 - consensus``); ``attract=False`` keeps only those.
 
     Returns
     -------
     EdgeSet
         Columns ``criterion`` ("view_consensus"), ``weight`` (= consensus),
-        ``observers`` (views where both have a container).
+        ``observers`` (views where both have a container), ``sign`` (+1, or -1
+        for cannot-links).
     """
     c = containers(node_labels, matches, num_nodes, min_matches=min_matches, min_share=min_share)
-    ei, cons, obs = consensus_pairs(c, min_views=min_views, threshold=threshold)
-    return EdgeSet(ei, {"criterion": np.full(ei.shape[1], "view_consensus"), "weight": cons, "observers": obs}, info={"threshold": threshold})
+    ei, cons, obs = consensus_pairs(c, min_views=min_views, threshold=threshold) if attract else (np.zeros((2, 0), np.int64), np.zeros(0), np.zeros(0, np.int64))
+    sign = np.ones(ei.shape[1])
+    if repel_below is not None:
+        rei, rcons, robs = consensus_pairs(c, min_views=min_views, threshold=repel_below, below=True)
+        ei = np.concatenate([ei, rei], axis=1)
+        cons, obs = np.concatenate([cons, 1.0 - rcons]), np.concatenate([obs, robs])
+        sign = np.concatenate([sign, -np.ones(rei.shape[1])])
+    return EdgeSet(
+        ei,
+        {"criterion": np.full(ei.shape[1], "view_consensus"), "weight": cons, "observers": obs, "sign": sign},
+        info={"threshold": threshold, "cannot_links": int((sign < 0).sum())},
+    )
 
 
 class ViewConsensus:
@@ -180,6 +199,8 @@ class ViewConsensus:
         min_views: int = Field(2, ge=1)
         min_matches: int = Field(5, ge=1)
         min_share: float = Field(0.5, ge=0, le=1)
+        attract: bool = True
+        repel_below: float | None = Field(None, ge=0, le=1)
 
     def __init__(self, options: Any = None, **kwargs: Any) -> None:
         self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)

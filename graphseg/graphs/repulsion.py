@@ -26,13 +26,16 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from ..geometry import point_normals
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
 __all__ = ["boundary_jumps", "depth_jump_cannot_links", "DepthRepulsion"]
 
 
-def boundary_jumps(labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def boundary_jumps(
+    labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int = 3, normals: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs touching in one view and the 3D distances across their boundary.
 
     Parameters
@@ -45,6 +48,8 @@ def boundary_jumps(labels: np.ndarray, points: np.ndarray, num_nodes: int, *, re
     reach : int
         Pixel offsets ``1..reach`` along rows and columns are compared (masks
         often leave a thin unlabelled seam at a depth edge).
+    normals : float ``[H, W, 3]``, optional
+        Unit normals pointing toward the camera; enables ``convexity``.
 
     Returns
     -------
@@ -52,6 +57,10 @@ def boundary_jumps(labels: np.ndarray, points: np.ndarray, num_nodes: int, *, re
         Node pairs (``lo < hi``), one entry per compared pixel pair.
     dist : float64 ``[P]``
         3D distance between the two pixels' points (metres).
+    convexity : float64 ``[P]``
+        ``(n_p - n_q) . (x_p - x_q) / |x_p - x_q|`` (LCCP's test): positive
+        across a convex edge (a ridge), negative across a concave one (where
+        two objects meet), about 0 on a smooth surface; NaN without normals.
 
     Notes
     -----
@@ -59,7 +68,7 @@ def boundary_jumps(labels: np.ndarray, points: np.ndarray, num_nodes: int, *, re
 
     Examples
     --------
-    >>> lo, hi, d = boundary_jumps(np.array([[0, 1]]), np.zeros((1, 2, 3)), 2, reach=1)
+    >>> lo, hi, d, c = boundary_jumps(np.array([[0, 1]]), np.zeros((1, 2, 3)), 2, reach=1)
     >>> lo.tolist(), hi.tolist(), d.tolist()
     ([0], [1], [0.0])
     """
@@ -67,25 +76,30 @@ def boundary_jumps(labels: np.ndarray, points: np.ndarray, num_nodes: int, *, re
     pts = np.asarray(points)
     if pts.shape != (*lab.shape, 3):
         raise ValueError(f"expected points of shape [{lab.shape[0]}, {lab.shape[1]}, 3] (got {list(pts.shape)})")
-    los, his, ds = [], [], []
+    nrm = np.full(pts.shape, np.nan, np.float32) if normals is None else np.asarray(normals, np.float32)
+    los, his, ds, cs = [], [], [], []
     for d in range(1, int(reach) + 1):
-        for a, b, pa, pb in (
-            (lab[:, :-d], lab[:, d:], pts[:, :-d], pts[:, d:]),
-            (lab[:-d, :], lab[d:, :], pts[:-d, :], pts[d:, :]),
+        for a, b, pa, pb, na, nb in (
+            (lab[:, :-d], lab[:, d:], pts[:, :-d], pts[:, d:], nrm[:, :-d], nrm[:, d:]),
+            (lab[:-d, :], lab[d:, :], pts[:-d, :], pts[d:, :], nrm[:-d, :], nrm[d:, :]),
         ):
             ok = (a >= 0) & (b >= 0) & (a != b)
             if not ok.any():
                 continue
-            dist = np.linalg.norm(pa[ok].astype(np.float64) - pb[ok], axis=1)
+            diff = pa[ok].astype(np.float64) - pb[ok]
+            dist = np.linalg.norm(diff, axis=1)
             fin = np.isfinite(dist)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                conv = np.einsum("ij,ij->i", na[ok].astype(np.float64) - nb[ok], diff) / dist
             x, y = a[ok][fin].astype(np.int64), b[ok][fin].astype(np.int64)
             los.append(np.minimum(x, y))
             his.append(np.maximum(x, y))
             ds.append(dist[fin])
+            cs.append(conv[fin])
     if not los:
         z = np.zeros(0, np.int64)
-        return z, z, np.zeros(0)
-    return np.concatenate(los), np.concatenate(his), np.concatenate(ds)
+        return z, z, np.zeros(0), np.zeros(0)
+    return np.concatenate(los), np.concatenate(his), np.concatenate(ds), np.concatenate(cs)
 
 
 def depth_jump_cannot_links(
@@ -98,6 +112,8 @@ def depth_jump_cannot_links(
     reach: int = 3,
     min_pairs: int = 10,
     same_view: bool = False,
+    concave: float | None = None,
+    normal_step: int = 3,
 ) -> EdgeSet:
     """Cannot-link edges between nodes whose shared boundary is mostly a depth jump.
 
@@ -114,6 +130,15 @@ def depth_jump_cannot_links(
         See :func:`boundary_jumps`.
     min_pairs : int
         Pairs with fewer boundary pixel pairs are ignored.
+    concave : float, optional
+        Also count a boundary pixel pair as a separation when its convexity
+        (see :func:`boundary_jumps`) is below ``-concave``: objects that touch
+        (a box on a box, a can against a block) meet at a concave crease
+        without a depth jump. Normals are those of
+        :func:`graphseg.geometry.point_normals` negated, i.e. facing the camera
+        for point maps in the OpenCV camera convention (x right, y down).
+    normal_step : int
+        Pixel step of the normals' central differences.
     same_view : bool
         Stricter rule: every two nodes seen in one view are a cannot-link
         unless they touch there along a smooth boundary (at least
@@ -135,10 +160,11 @@ def depth_jump_cannot_links(
     for lab, pts in zip(node_labels, points):
         if pts is None:
             continue
-        lo, hi, d = boundary_jumps(lab, pts, num_nodes, reach=reach)
+        nrm = None if concave is None else -point_normals(np.asarray(pts, np.float32), normal_step)
+        lo, hi, d, conv = boundary_jumps(lab, pts, num_nodes, reach=reach, normals=nrm)
         los.append(lo)
         his.append(hi)
-        jumps.append(d > jump)
+        jumps.append((d > jump) | ((conv < -concave) if concave is not None else False))
     if los and sum(x.size for x in los):
         key = np.concatenate(los) * max(num_nodes, 1) + np.concatenate(his)
         jmp = np.concatenate(jumps)
@@ -194,6 +220,8 @@ class DepthRepulsion:
         reach: int = Field(3, ge=1)
         min_pairs: int = Field(10, ge=1)
         same_view: bool = False
+        concave: float | None = Field(None, gt=0)
+        normal_step: int = Field(3, ge=1)
 
     def __init__(self, options: Any = None, **kwargs: Any) -> None:
         self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
