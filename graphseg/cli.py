@@ -64,6 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--objects", type=int, default=6)
     s.add_argument("--views", type=int, default=8)
     s.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
+    s.add_argument("--layout", default="spread", choices=["spread", "touching", "stacked"], help="stress set: objects touching or stacked (default: spread apart)")
 
     d = sub.add_parser("demo", help="synthesise a scene, segment it, evaluate and write a report")
     d.add_argument("-o", "--out", default="graphseg-demo")
@@ -248,11 +249,11 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
-def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int]) -> Any:
+def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], layout: str = "spread") -> Any:
     """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
     from .sim.pybullet_scenes import synthesize
 
-    return synthesize(seed=seed, objects=objects, views=views, size=size)
+    return synthesize(seed=seed, objects=objects, views=views, size=size, layout=layout)
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
@@ -262,7 +263,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
     out = Path(args.out)
     _check_output_target(out)
     t = time.perf_counter()
-    scene = _synthesize(args.seed, args.objects, args.views, size)
+    scene = _synthesize(args.seed, args.objects, args.views, size, args.layout)
     try:
         write_scene_folder(scene, out, overwrite=True)
     except OSError as err:
