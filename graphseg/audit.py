@@ -248,10 +248,11 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
     mem = g0.members
     counts = mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], gt)
     base_obj, base_share = majority(counts)
-    names = list(getattr(scene, "objects", None) or [])
+    objects = getattr(scene, "objects", None) or {}
+    names = dict(objects) if isinstance(objects, dict) else {k + 1: n for k, n in enumerate(objects)}
 
     def name(o: int) -> str:
-        return "background" if o == 0 else (names[o - 1] if 0 < o <= len(names) else str(o))
+        return "background" if o == 0 else str(names.get(o, o))
 
     stages = []
     for s, g in enumerate(result.graphs):

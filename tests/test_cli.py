@@ -201,3 +201,16 @@ def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
     (tmp_path / "masks" / "001.png").unlink()
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o3", "--masks", tmp_path / "masks", "--quiet"], capsys)
     assert code == 2 and "no masks for view '001'" in err and not (tmp_path / "o3").exists()
+
+
+def test_eval_audit_and_method(scene_dir, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, _, _ = run_cli(["run", scene_dir, "-o", out, "--quiet", "--method", "sam3d"], capsys)
+    assert code == 0
+    assert "bidirectional_overlap" in (out / "config.yaml").read_text() or "sam3d" in (out / "config.yaml").read_text()
+    code, stdout, _ = run_cli(["eval", out, "--audit", "--json", tmp_path / "m.json"], capsys)
+    assert code == 0 and "audit:" in stdout and "stage 0:" in stdout
+    m = json.loads((tmp_path / "m.json").read_text())
+    assert set(m["audit"]) >= {"summary", "stages", "impure_masks", "merge_errors"}
+    with pytest.raises(SystemExit):
+        main(["run", str(scene_dir), "-o", str(tmp_path / "x"), "--method", "nope"])
