@@ -47,7 +47,7 @@ YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
 KEYS = ("iou", "f1", "iou_sel", "precision", "pixel_utility")
 
 JUMP = {"depth_repulsion": {}}
-CONCAVE = {"depth_repulsion": {"concave": 0.1, "fraction": 0.4, "reach": 4}}
+CONCAVE = {"depth_repulsion": {"concave": 0.2, "fraction": 0.5, "reach": 4}}
 REP_STAGES = [["pixel_match", "depth_repulsion"], ["chamfer_3d", "depth_repulsion"]]
 
 

@@ -137,7 +137,8 @@ def lift_edges(graphs: Sequence[Any], base_area: np.ndarray) -> tuple[np.ndarray
     ----------
     graphs : list of CorrespondenceGraph
         ``result.graphs``; graph ``s`` carries the stage-``s`` edges (column
-        ``stage``) and ``members`` mapping input masks to its nodes.
+        ``stage``) and ``members`` mapping input masks to its nodes. Repulsive
+        edges (``sign < 0``) are left out.
     base_area : float ``[M]``
         Area of each input mask, indexed like ``graphs[0].members``.
 
@@ -151,6 +152,9 @@ def lift_edges(graphs: Sequence[Any], base_area: np.ndarray) -> tuple[np.ndarray
     for s, g in enumerate(graphs):
         st = g.edge_attr.get("stage")
         own = np.flatnonzero(np.asarray(st) == s) if st is not None else np.arange(g.num_edges)
+        sign = g.edge_attr.get("sign")
+        if sign is not None:  # cannot-links join nothing
+            own = own[~(np.asarray(sign, np.float64)[own] < 0)]
         node = g.members["node"]
         # representative member of each node: its largest input mask
         order = np.lexsort((-base_area, node))
@@ -228,8 +232,9 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
     Returns
     -------
     dict
-        JSON-serialisable: ``summary``, ``stages`` (per stage: ``edges``,
-        ``wrong``, ``wrong_by_criterion``, ``wrong_edges`` listed as
+        JSON-serialisable: ``summary``, ``stages`` (per stage: attractive
+        ``edges``, ``wrong``, ``wrong_by_criterion``, ``cannot_links``,
+        ``wrong_cannot_links`` (joining one object), ``wrong_edges`` listed as
         ``{"edge", "u", "v", "objects", "criterion", "weight"}``),
         ``impure_masks`` (``{"view", "mask_id", "object", "share"}``) and
         ``merge_errors`` (``{"object", "gt", "cut": [{"stage", "edge",
@@ -262,6 +267,13 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         node_obj, _ = majority(node_counts)
         st = g.edge_attr.get("stage")
         own = np.flatnonzero(np.asarray(st) == s) if st is not None else np.arange(g.num_edges)
+        sign = g.edge_attr.get("sign")
+        repel = np.zeros(g.num_edges, bool) if sign is None else np.asarray(sign, np.float64) < 0
+        # repulsive edges (cannot-links) are wrong when they join masks of the same object
+        rep = own[repel[own]]
+        ro = node_obj[g.edge_index[:, rep]]
+        wrong_repel = int(((ro[0] == ro[1]) & (ro[0] >= 0)).sum())
+        own = own[~repel[own]]
         bad = own[wrong_edges(g.edge_index[:, own], node_obj)]
         crit = g.edge_attr.get("criterion")
         weight = g.edge_attr.get("weight")
@@ -280,7 +292,18 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
             }
             for e in bad[:max_listed]
         ]
-        stages.append({"stage": s, "nodes": int(g.num_nodes), "edges": int(own.size), "wrong": int(bad.size), "wrong_by_criterion": by_crit, "wrong_edges": listed})
+        stages.append(
+            {
+                "stage": s,
+                "nodes": int(g.num_nodes),
+                "edges": int(own.size),
+                "wrong": int(bad.size),
+                "wrong_by_criterion": by_crit,
+                "wrong_edges": listed,
+                "cannot_links": int(rep.size),
+                "wrong_cannot_links": wrong_repel,
+            }
+        )
 
     imp = impure_masks(counts, purity)
     impure = [{"view": int(mem["view"][i]), "mask_id": int(mem["mask_id"][i]), "object": name(int(base_obj[i])), "share": round(float(base_share[i]), 3)} for i in imp]

@@ -77,3 +77,11 @@ def test_audit_clean_run_and_missing_gt():
     bare = SimpleNamespace(views=[SimpleNamespace(instances=None)])
     with pytest.raises(ValueError, match="ground-truth"):
         audit(segment(scene, masks, matches), bare)
+
+
+def test_cannot_links_are_not_wrong_edges():
+    result, scene = fake_run()
+    g = result.graphs[0].add_edges(np.array([[0, 0], [1, 2]]), {"criterion": np.array(["depth_repulsion"] * 2), "sign": -np.ones(2), "stage": np.zeros(2, np.int64)})
+    result.graphs = [g, result.graphs[1]]
+    st = audit(result, scene)["stages"][0]
+    assert st["wrong"] == 1 and st["cannot_links"] == 2 and st["wrong_cannot_links"] == 1  # 0-2 is one object
