@@ -23,6 +23,7 @@ segmenters.register("superpixel", "graphseg.backends.segmenters:SuperpixelSegmen
 segmenters.register("geometric", "graphseg.backends.segmenters:GeometricSegmenter")
 segmenters.register("precomputed", "graphseg.backends.segmenters:PrecomputedSegmenter")
 segmenters.register("oracle-parts", "graphseg.backends.segmenters:OraclePartsSegmenter")
+segmenters.register("convexity", "graphseg.backends.convexity:ConvexitySegmenter")
 
 matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")
