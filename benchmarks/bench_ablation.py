@@ -20,12 +20,14 @@ computed once per scene and segmenter and shared by every row.
 Metrics (``graphseg.metrics.evaluate``): mean IoU, F1, IoU_sel, precision,
 pixel utility, averaged over scenes.
 
-Usage: python benchmarks/bench_ablation.py [--quick] [--cache DIR] [--json PATH]
+Usage: python benchmarks/bench_ablation.py [--quick] [--cache DIR] [--only GROUP ...] [--json PATH]
+       python benchmarks/bench_ablation.py --merge A.json B.json --json benchmarks/results/ablation.json
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import pickle
 import sys
@@ -110,13 +112,34 @@ def inputs(name, loader, seg, options, cache: Path | None):
     return out
 
 
+def markdown(rows) -> str:
+    """Per scene group, the paper's Table I layout: IoU, F1, IoU_sel, precision, pixel utility per variant."""
+    out = []
+    for group in dict.fromkeys(r["scenes"] for r in rows):
+        sel = [r for r in rows if r["scenes"] == group]
+        out.append(f"**{group}** (n = {sel[0]['n']})\n")
+        out.append("| method | IoU | F1 | IoU_sel | precision | pixel utility |")
+        out.append("|---|---|---|---|---|---|")
+        for r in sel:
+            out.append(f"| {r['variant']} | " + " | ".join("-" if r[k] is None else f"{r[k]:.3f}" for k in KEYS) + " |")
+        out.append("")
+    return "\n".join(out)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="fewer synthetic scenes")
     ap.add_argument("--cache", help="folder for the per-scene inputs (pickles), reused across runs")
     ap.add_argument("--only", nargs="*", help="run only these groups (prefix match)")
     ap.add_argument("--json", default="benchmarks/results/ablation.json")
+    ap.add_argument("--merge", nargs="*", help="only merge these JSON files (rows and per-scene lists) into --json and print the markdown tables")
     args = ap.parse_args(argv)
+    if args.merge:
+        parts = [json.loads(Path(f).read_text()) for f in args.merge]
+        merged = {"rows": [r for p in parts for r in p["rows"]], "per_scene": [r for p in parts for r in p["per_scene"]], "configs": parts[0]["configs"]}
+        write_json(args.json, merged)
+        print(markdown(merged["rows"]))
+        return
     cache = Path(args.cache) if args.cache else None
     var = variants()
     acc: dict[tuple[str, str], list[dict]] = {}
@@ -148,6 +171,8 @@ def main(argv=None):
     print("\nvariants (columns above, in order):", "; ".join(var))
     print()
     print_table(rows, ["scenes", "variant", "n", *KEYS])
+    print()
+    print(markdown(rows))
     print(f"total {time.perf_counter() - t0:.0f} s")
     write_json(args.json, {"rows": rows, "per_scene": per_scene, "configs": {k: v.to_dict() for k, v in var.items()}})
 
