@@ -68,8 +68,8 @@ def containers(
     >>> from graphseg.scene import Matches
     >>> labs = [np.array([[0, 1]]), np.array([[2, 2]])]
     >>> m = {(0, 1): Matches([[0, 0], [1, 0]], [[0, 0], [1, 0]], [1.0, 1.0])}
-    >>> containers(labs, m, 3, min_matches=1).tolist()
-    [[0, 2], [1, 2], [-1, 2]]
+    >>> containers(labs, m, 3, min_matches=1).tolist()   # node 2 splits 1:1 over 0 and 1; ties go to the lower id
+    [[0, 2], [1, 2], [0, 2]]
     """
     n_views = len(node_labels)
     out = np.full((num_nodes, n_views), -1, np.int64)
@@ -184,8 +184,8 @@ class ViewConsensus:
     >>> from graphseg.scene import Matches
     >>> g = CorrespondenceGraph.from_masks([np.array([[1, 2]]), np.array([[1, 1]])])
     >>> ev = Evidence.for_graph(g, matches={(0, 1): Matches([[0, 0], [1, 0]], [[0, 0], [1, 0]], [1.0, 1.0])})
-    >>> ViewConsensus(min_matches=1, min_views=1, threshold=0.5)(g, ev).edge_index.tolist()
-    [[0, 1], [2, 2]]
+    >>> ViewConsensus(min_matches=1, min_views=1, threshold=1.0)(g, ev).edge_index.tolist()   # node 2 covers 0 and 1
+    [[0], [2]]
     """
 
     name = "view_consensus"
