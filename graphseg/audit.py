@@ -251,7 +251,7 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         raise ValueError("the result stores no mask images; the audit needs them")
     g0 = result.graphs[0]
     mem = g0.members
-    counts = mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], gt)
+    counts = mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], [np.asarray(g) for g in gt])
     base_obj, base_share = majority(counts)
     objects = getattr(scene, "objects", None) or {}
     names = dict(objects) if isinstance(objects, dict) else {k + 1: n for k, n in enumerate(objects)}
@@ -352,7 +352,7 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         "edges": [st["edges"] for st in stages],
         "wrong_edges": [st["wrong"] for st in stages],
         "merge_errors": len(merges),
-        "cut_edges": int(sum(len(m["cut"]) for m in merges)),
+        "cut_edges": int(sum(len(m["cut"]) for m in merges)),  # type: ignore[arg-type,misc]
     }
     return {"summary": summary, "stages": stages, "impure_masks": impure, "merge_errors": merges, "purity": purity, "min_share": min_share}
 

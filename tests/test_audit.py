@@ -4,7 +4,17 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from graphseg.audit import audit, audit_html, format_audit, impure_masks, lift_edges, majority, mask_gt_counts, min_cut_edges, wrong_edges
+from graphseg.audit import (
+    audit,
+    audit_html,
+    format_audit,
+    impure_masks,
+    lift_edges,
+    majority,
+    mask_gt_counts,
+    min_cut_edges,
+    wrong_edges,
+)
 from graphseg.graphs import CorrespondenceGraph, coarsen
 from graphseg.method.segment import segment
 from graphseg.testing.scenes import two_boxes_scene

@@ -206,4 +206,4 @@ class ViewConsensus:
         self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
-        return view_consensus_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())  # type: ignore[arg-type]
+        return view_consensus_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())

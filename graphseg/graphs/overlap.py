@@ -110,4 +110,4 @@ class BidirectionalOverlap:
         self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
-        return bidirectional_overlap_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())  # type: ignore[arg-type]
+        return bidirectional_overlap_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())

@@ -2,7 +2,12 @@ import numpy as np
 import pytest
 
 from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
-from graphseg.graphs.consensus import ViewConsensus, consensus_pairs, containers, view_consensus_edges
+from graphseg.graphs.consensus import (
+    ViewConsensus,
+    consensus_pairs,
+    containers,
+    view_consensus_edges,
+)
 from graphseg.graphs.overlap import BidirectionalOverlap, bidirectional_overlap_edges
 from graphseg.scene import Matches
 
