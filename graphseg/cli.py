@@ -68,6 +68,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--points", help="folder of precomputed world point maps per view (VIEW.npz, docs/formats.md); implies --lifter precomputed-points")
     r.add_argument("--parts", type=int, help="parts per object for the oracle-parts segmenter (evaluation only)")
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
+    r.add_argument("--method", choices=["graphseg", "graphseg-minus", "maskclustering", "sam3d"], help="method (default from the config: graphseg); maskclustering and sam3d are baselines on the same inputs")
     r.add_argument("--seed", type=int, help="random seed (>= 0)")
     _views_args(r)
     _common(r, overwrite=True)
@@ -76,6 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("out", help="output folder of graphseg run")
     e.add_argument("--scene", help="scene with ground truth (default: the one recorded in run.json); its view names must match")
     e.add_argument("--json", help="also write the metrics to this JSON file (a new file, or --overwrite)")
+    e.add_argument("--audit", action="store_true", help="also audit the edges against the ground truth (wrong edges per stage, impure masks, min cut per merge error); with --json the audit is written under the key 'audit'")
     _common(e, overwrite=True)
 
     s = sub.add_parser("synth", help="render a synthetic scene with exact ground truth (needs pybullet: graphseg[sim])")
@@ -87,6 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--arc", type=float, default=360.0, metavar="DEG", help="cameras on an arc of DEG degrees (a narrow wrist-camera sweep) instead of the full ring (default 360)")
     s.add_argument("--no-depth", action="store_true", help="write RGB, intrinsics and ground truth only: no depth, no poses (an RGB-only scene)")
     s.add_argument("--no-intrinsics", action="store_true", help="with --no-depth: leave out K too")
+    s.add_argument("--layout", default="spread", choices=["spread", "touching", "stacked"], help="stress set: objects touching or stacked (default: spread apart)")
     _common(s, overwrite=True)
 
     d = sub.add_parser("demo", help="synthesise a scene, segment it, evaluate and write a report")
@@ -222,6 +225,8 @@ def _config(args: argparse.Namespace) -> Any:
     for text in getattr(args, "backend_option", None) or []:
         name, key, value = parse_backend_option(text)
         cfg = _with_backend_options(cfg, name, **{key: value})
+    if getattr(args, "method", None):
+        cfg = cfg.model_copy(update={"method": args.method})
     if getattr(args, "masks", None):
         folder = Path(args.masks)
         if not folder.is_dir():
@@ -299,19 +304,23 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     if args.json:
         check_target(args.json, "export", inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, folder=False)
-    metrics = evaluate_output(args.out, args.scene)
+    metrics = evaluate_output(args.out, args.scene, audit=args.audit)
     print(_metrics_table(metrics))
+    if args.audit:
+        from .audit import format_audit
+
+        print(format_audit(metrics["audit"]))
     if args.json:
         _write_json_file(args.json, metrics, inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite)
         print(_printable(f"wrote {args.json}"))
     return 0
 
 
-def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], arc: float = 360.0) -> Any:
+def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], arc: float = 360.0, layout: str = "spread") -> Any:
     """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
     from .sim.pybullet_scenes import synthesize
 
-    return synthesize(seed=seed, objects=objects, views=views, size=size, arc_deg=arc)
+    return synthesize(seed=seed, objects=objects, views=views, size=size, arc_deg=arc, layout=layout)
 
 
 def _check_synth_args(args: argparse.Namespace) -> None:
@@ -343,7 +352,7 @@ def cmd_synth(args: argparse.Namespace) -> int:
     _check_synth_args(args)
     out = check_target(args.out, "synth", overwrite=args.overwrite)
     t = time.perf_counter()
-    scene = _synthesize(args.seed, args.objects, args.views, size, args.arc)
+    scene = _synthesize(args.seed, args.objects, args.views, size, args.arc, args.layout)
     if args.no_depth:
         from .sim.strip import rgb_only
 

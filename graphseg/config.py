@@ -332,6 +332,7 @@ class Config(_Model):
     backends: BackendConfig = Field(default_factory=BackendConfig)
     stages: list[list[CriterionSpec]] = Field(default_factory=lambda: [[CriterionSpec.model_validate(n) for n in s] for s in _DEFAULT_STAGES])
     contractor: ContractorSpec = Field(default_factory=lambda: ContractorSpec.model_validate("star"))
+    method: Literal["graphseg", "graphseg-minus", "maskclustering", "sam3d"] = Field("graphseg", description="graphseg-minus: no 3D stage; maskclustering / sam3d: the baselines of graphseg.method.baselines")
     seed: int | None = Field(0, ge=0, description="random seed (None: fresh entropy)")
 
     @model_validator(mode="before")

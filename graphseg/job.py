@@ -296,6 +296,10 @@ def run_job(
     timings["run"] = time.perf_counter() - t
     t = time.perf_counter()
     metrics = evaluate_scene(result, scene)
+    if metrics is not None:  # ground truth: audit the edges too (shown in report.html and metrics.json)
+        from .audit import audit as edge_audit
+
+        metrics["audit"] = edge_audit(result, scene)
     timings["evaluate"] = time.perf_counter() - t
     warnings = list(result.info.get("warnings", []))
     fell = scene.meta.get("fell_off")
@@ -311,7 +315,7 @@ def run_job(
     return JobResult(result, scene, metrics, path_out, timings, warnings)
 
 
-def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLike[str] | None = None) -> dict[str, Any]:
+def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLike[str] | None = None, *, audit: bool = False) -> dict[str, Any]:
     """Metrics of an output folder against ground truth.
 
     Parameters
@@ -320,6 +324,9 @@ def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLik
         A folder written by :func:`run_job` / ``graphseg run``.
     scene : Scene or path-like, optional
         The scene with ground truth; default: the one recorded in ``run.json``.
+    audit : bool
+        Also audit the edges against the ground truth (:func:`graphseg.audit.audit`),
+        under the key ``"audit"``.
 
     Raises
     ------
@@ -367,4 +374,8 @@ def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLik
     sc = lift(sc, None, result.config)
     metrics = evaluate_scene(result, sc)
     assert metrics is not None
+    if audit:
+        from .audit import audit as edge_audit
+
+        metrics["audit"] = edge_audit(result, sc)
     return metrics

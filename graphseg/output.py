@@ -422,6 +422,7 @@ def fill_output(
         points=result.object_points.points,
         point_colors=colors[result.object_points.node_of_point() + 1],
         metrics=metrics,
+        audit=(metrics or {}).get("audit"),
         summary=summary,
     )
     (tmp / "report.html").write_text(page, encoding="utf-8", errors="replace")

@@ -208,7 +208,9 @@ def run(
     Result
         ``info["pipeline"]`` names the backends and holds per-step timings.
     """
-    cfg = config or Config()
+    from .method.baselines import method_config
+
+    cfg = method_config(config)  # the stages config.method runs: evidence is computed for them
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()

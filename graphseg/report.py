@@ -110,6 +110,7 @@ def render_report(
     summary: dict[str, Any],
     max_points: int = 60_000,
     rng: Any = 0,
+    audit: dict[str, Any] | None = None,
 ) -> str:
     """The report page as a string (see the module docstring)."""
     gen = np.random.default_rng(rng)
@@ -130,6 +131,10 @@ def render_report(
         mean = metrics.get("mean", {})
         body += "<tr class='mean'><td>mean</td>" + "".join(f"<td>{_fmt(mean.get(k))}</td>" for k in keys) + "</tr>"
         rows = f"<h2>Metrics</h2><table>{head}{body}</table><p>pixel utility: {_fmt(mean.get('pixel_utility'))}</p>"
+    if audit is not None:  # optional edge audit section (graphseg.audit)
+        from .audit import audit_html
+
+        rows += audit_html(audit)
     items = "".join(
         f"<figure><img src='data:image/png;base64,{_png_b64(img)}'/><figcaption>{html.escape(n)}</figcaption></figure>"
         for n, img in zip(view_names, overlays)

@@ -389,3 +389,16 @@ def test_run_never_modifies_its_inputs(small_scene, tmp_path_factory):
         shutil.rmtree(base)
 
     prop()
+
+
+def test_eval_audit_and_method(scene_dir, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, _, _ = run_cli(["run", scene_dir, "-o", out, "--quiet", "--method", "sam3d"], capsys)
+    assert code == 0
+    assert "bidirectional_overlap" in (out / "config.yaml").read_text() or "sam3d" in (out / "config.yaml").read_text()
+    code, stdout, _ = run_cli(["eval", out, "--audit", "--json", tmp_path / "m.json"], capsys)
+    assert code == 0 and "audit:" in stdout and "stage 0:" in stdout
+    m = json.loads((tmp_path / "m.json").read_text())
+    assert set(m["audit"]) >= {"summary", "stages", "impure_masks", "merge_errors"}
+    with pytest.raises(SystemExit):
+        main(["run", str(scene_dir), "-o", str(tmp_path / "x"), "--method", "nope"])

@@ -83,3 +83,31 @@ def test_box_renderer_geometry():
     table = r.points[r.instances == 0]
     table = table[np.isfinite(table).all(1)]
     assert np.abs(table[:, 2]).max() < 1e-5
+
+
+def test_stress_layouts_put_objects_together():
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    def gaps(scene):
+        cents = []
+        v = scene.views[0]
+        pts = v.camera_points()
+        for k in np.unique(v.instances[v.instances > 0]):
+            cents.append(np.nanmean(pts[v.instances == k], axis=0))
+        c = np.array(cents)
+        d = np.linalg.norm(c[:, None] - c[None], axis=-1) + np.eye(len(c)) * 9
+        return float(np.median(d.min(axis=1)))
+
+    spread = synthesize(seed=5, objects=5, views=1, size=(160, 120))
+    touching = synthesize(seed=5, objects=5, views=1, size=(160, 120), layout="touching")
+    assert touching.meta["layout"] == "touching"
+    assert gaps(touching) < gaps(spread)
+    stacked = synthesize(seed=5, objects=3, views=1, size=(160, 120), layout="stacked")
+    assert stacked.meta["layout"] == "stacked" and stacked.views[0].instances.max() >= 1
+
+
+def test_unknown_layout():
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    with pytest.raises(ValueError, match="unknown layout"):
+        synthesize(layout="pile")

@@ -25,6 +25,7 @@ segmenters.register("precomputed", "graphseg.backends.segmenters:PrecomputedSegm
 segmenters.register("oracle-parts", "graphseg.backends.segmenters:OraclePartsSegmenter")
 segmenters.register("sam2", "graphseg.backends.sam:SAM2Segmenter")
 segmenters.register("sam-onnx", "graphseg.backends.sam:SamOnnxSegmenter")
+segmenters.register("convexity", "graphseg.backends.convexity:ConvexitySegmenter")
 
 matchers = Registry("matcher", group="graphseg.matchers")
 matchers.register("reprojection", "graphseg.backends.matchers:ReprojectionMatcher")

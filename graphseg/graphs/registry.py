@@ -21,6 +21,9 @@ edge_adders = Registry("edge criterion", group="graphseg.edge_adders")
 edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatch")
 edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3D")
 edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarity")
+edge_adders.register("depth_repulsion", "graphseg.graphs.repulsion:DepthRepulsion")
+edge_adders.register("view_consensus", "graphseg.graphs.consensus:ViewConsensus")
+edge_adders.register("bidirectional_overlap", "graphseg.graphs.overlap:BidirectionalOverlap")
 
 criteria = edge_adders
 
@@ -28,3 +31,5 @@ contractors = Registry("contractor", group="graphseg.contractors")
 contractors.register("star", "graphseg.graphs.contract:StarContraction")
 contractors.register("union_find", "graphseg.graphs.contract:UnionFindContraction")
 contractors.register("scipy", "graphseg.graphs.contract:ScipyContraction")
+contractors.register("constrained", "graphseg.graphs.signed:ConstrainedUnionFindContraction")
+contractors.register("core_attach", "graphseg.graphs.signed:CoreAttachContraction")

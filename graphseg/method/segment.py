@@ -228,9 +228,12 @@ def segment(
             with_edges.add_edges(es.edge_index, attrs, in_place=True)
             info_s["adders"][spec.name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
         if getattr(contractor, "uses_edge_attr", False):
-            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen, edge_attr=dict(with_edges.edge_attr))
-        else:
-            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen)
+            extra = {"node_attr": dict(with_edges.node_attr)} if getattr(contractor, "uses_node_attr", False) else {}
+            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen, edge_attr=dict(with_edges.edge_attr), **extra)
+        else:  # plain components: repulsive (sign < 0) edges are not links
+            sign = with_edges.edge_attr.get("sign")
+            attract = with_edges.edge_index if sign is None else with_edges.edge_index[:, ~(np.asarray(sign, np.float64) < 0)]
+            cluster = contractor(attract, with_edges.num_nodes, rng=gen)
         with_edges.meta["stage"] = s
         stage_graphs.append(with_edges)
         current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)

@@ -118,8 +118,14 @@ def synthesize(
     jitter: float = 0.03,
     arc_deg: float = 360.0,
     settle_steps: int = 480,
+    layout: str = "spread",
 ) -> Scene:
     """Render a scene with ``objects`` objects and ``views`` cameras (``size`` = (width, height)).
+
+    ``layout`` (stress set): ``"spread"`` drops objects at least 9 cm apart;
+    ``"touching"`` drops them 4-7 cm apart around the centre, so they settle
+    against each other; ``"stacked"`` drops them in piles of two or three on
+    the same spot, so they land on top of each other.
 
     Returns
     -------
@@ -134,6 +140,8 @@ def synthesize(
         outside ``[1, 360]`` or a size below 16 pixels.
     """
     _check_args(seed, objects, views, size)
+    if layout not in ("spread", "touching", "stacked"):
+        raise ValueError(f"unknown layout {layout!r}; choose 'spread', 'touching' or 'stacked'")
     from ..quiet import native_silence
 
     with native_silence():  # pybullet prints its build banner on fd 1
@@ -155,12 +163,20 @@ def synthesize(
         placed: list[np.ndarray] = []
         for k, a in enumerate(picks):
             asset = ASSETS[int(a)]
-            for _ in range(30):  # spread the drop points
-                xy = rng.uniform([-0.22, -0.16], [0.22, 0.16])
-                if all(np.linalg.norm(xy - q) > 0.09 for q in placed):
-                    break
+            if layout == "stacked" and k % 3 and placed:  # on top of the pile's first object
+                xy = placed[-1] + rng.normal(0, 0.01, 2)
+            elif layout == "touching" and placed:
+                ang = rng.uniform(0, 2 * np.pi)
+                xy = placed[int(rng.integers(len(placed)))] + rng.uniform(0.04, 0.07) * np.array([np.cos(ang), np.sin(ang)])
+                xy = np.clip(xy, [-0.22, -0.16], [0.22, 0.16])
+            else:
+                for _ in range(30):  # spread the drop points
+                    xy = rng.uniform([-0.22, -0.16], [0.22, 0.16])
+                    if all(np.linalg.norm(xy - q) > 0.09 for q in placed):
+                        break
             placed.append(xy)
-            pos = [float(xy[0]), float(xy[1]), TABLE_TOP + 0.06 + 0.05 * k]
+            lift = 0.12 * (k % 3) if layout == "stacked" else 0.05 * k
+            pos = [float(xy[0]), float(xy[1]), TABLE_TOP + 0.06 + lift]
             orn = p.getQuaternionFromEuler(list(rng.uniform(0, 2 * np.pi, 3)))
             b = p.loadURDF(asset.urdf, pos, orn, globalScaling=asset.scale, physicsClientId=cid)
             if asset.recolor:
@@ -199,5 +215,5 @@ def synthesize(
         _ = table
     finally:
         p.disconnect(physicsClientId=cid)
-    meta: dict[str, Any] = {"seed": seed, "generator": "graphseg.sim.pybullet_scenes", "fov_deg": fov_deg, "objects_requested": objects, "fell_off": fell_off}
+    meta: dict[str, Any] = {"seed": seed, "generator": "graphseg.sim.pybullet_scenes", "fov_deg": fov_deg, "layout": layout, "objects_requested": objects, "fell_off": fell_off}
     return Scene(out, objects_named, name=f"synth-{seed}", meta=meta)

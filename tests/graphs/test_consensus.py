@@ -1,0 +1,69 @@
+import numpy as np
+import pytest
+
+from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
+from graphseg.graphs.consensus import (
+    ViewConsensus,
+    consensus_pairs,
+    containers,
+    view_consensus_edges,
+)
+from graphseg.graphs.overlap import BidirectionalOverlap, bidirectional_overlap_edges
+from graphseg.scene import Matches
+
+
+def identity_matches(shape, pairs):
+    ys, xs = np.mgrid[0 : shape[0], 0 : shape[1]]
+    xy = np.stack([xs.ravel(), ys.ravel()], 1).astype(np.float32)
+    return {p: Matches(xy, xy, np.ones(len(xy))) for p in pairs}
+
+
+def test_containers_shape_and_values():
+    # view 0: one mask over two objects (node 0); views 1, 2: the two objects apart
+    labs = [np.array([[0, 0, 0, 0]]), np.array([[1, 1, 2, 2]]), np.array([[3, 3, 4, 4]])]
+    c = containers(labs, identity_matches((1, 4), [(0, 1), (0, 2), (1, 2)]), 5, min_matches=1)
+    assert c.shape == (5, 3)
+    assert c[1].tolist() == [0, 1, 3] and c[2].tolist() == [0, 2, 4]
+    assert c[0, 0] == 0 and c[0, 1] in (1, 2)
+
+
+def test_undersegmented_mask_does_not_join_the_second_object():
+    labs = [np.array([[0, 0, 0, 0]]), np.array([[1, 1, 2, 2]]), np.array([[3, 3, 4, 4]])]
+    es = view_consensus_edges(labs, identity_matches((1, 4), [(0, 1), (0, 2), (1, 2)]), 5, min_matches=1, threshold=0.9)
+    pairs = {tuple(p) for p in es.edge_index.T.tolist()}
+    assert (1, 3) in pairs and (2, 4) in pairs  # each object across views 1 and 2
+    assert (1, 2) not in pairs and (3, 4) not in pairs
+
+
+def test_consensus_pairs_below_and_empty():
+    c = np.array([[0, 5], [1, 5], [1, 6]])
+    ei, cons, obs = consensus_pairs(c, min_views=2, threshold=0.0, below=True)
+    assert ei.tolist() == [[0], [2]] and cons.tolist() == [0.0] and obs.tolist() == [2]
+    ei, cons, obs = consensus_pairs(np.zeros((0, 2), np.int64))
+    assert ei.shape == (2, 0)
+
+
+def test_repel_below_gives_cannot_links():
+    labs = [np.array([[0, 0, 1, 1]]), np.array([[2, 2, 3, 3]])]
+    es = view_consensus_edges(labs, identity_matches((1, 4), [(0, 1)]), 4, min_matches=1, attract=False, repel_below=0.0, min_views=2)
+    assert es.num_edges > 0 and np.all(es.edge_attr["sign"] < 0)
+
+
+def test_view_consensus_adder():
+    g = CorrespondenceGraph.from_masks([np.array([[1, 1]]), np.array([[1, 1]])])
+    adder = edge_adders.resolve("view_consensus", min_matches=1)
+    assert isinstance(adder, ViewConsensus)
+    assert adder(g, Evidence.for_graph(g, matches=identity_matches((1, 2), [(0, 1)]))).edge_index.tolist() == [[0], [1]]
+    with pytest.raises(ValueError):
+        ViewConsensus(threshold=2.0)
+
+
+def test_bidirectional_overlap_refuses_a_swallowed_mask():
+    # view 0: big mask 0 (3 px) and small 1 (1 px); view 1: one mask 2 (4 px)
+    labs = [np.array([[0, 0, 0, 1]]), np.array([[2, 2, 2, 2]])]
+    m = identity_matches((1, 4), [(0, 1)])
+    es = bidirectional_overlap_edges(labs, m, 3, threshold=0.5, min_matches=1)
+    assert es.edge_index.tolist() == [[0], [2]]  # 3/4 both ways; 1 -> 2 is 1/4 from 2's side
+    assert es.edge_attr["weight"].tolist() == [0.75]
+    assert bidirectional_overlap_edges(labs, {}, 3).num_edges == 0
+    assert isinstance(edge_adders.resolve("bidirectional_overlap"), BidirectionalOverlap)

@@ -1,0 +1,67 @@
+import numpy as np
+import pytest
+
+from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
+from graphseg.graphs.repulsion import DepthRepulsion, boundary_jumps, depth_jump_cannot_links
+
+
+def grid(h, w, z):
+    ys, xs = np.mgrid[0:h, 0:w].astype(np.float64) * 0.002  # 2 mm pixels
+    return np.stack([xs, ys, z], -1).astype(np.float32)
+
+
+def test_boundary_jumps_shape_and_values():
+    lab = np.array([[0, 0, 1, 1]])
+    pts = grid(1, 4, np.array([[0.0, 0.0, 0.1, 0.1]]))
+    lo, hi, d, c = boundary_jumps(lab, pts, 2, reach=2)
+    assert lo.shape == hi.shape == d.shape == c.shape == (3,)  # offsets 1 (one pair) and 2 (two pairs)
+    assert set(lo.tolist()) == {0} and set(hi.tolist()) == {1}
+    assert np.all(d > 0.09) and np.all(np.isnan(c))
+
+
+def test_boundary_jumps_bad_points():
+    with pytest.raises(ValueError, match=r"points of shape \[1, 2, 3\]"):
+        boundary_jumps(np.zeros((1, 2), int), np.zeros((2, 2, 3)), 1)
+
+
+def test_step_is_cannot_link_flat_is_not():
+    lab = np.zeros((20, 20), np.int64)
+    lab[:, 10:] = 1
+    z = np.zeros((20, 20))
+    assert depth_jump_cannot_links([lab], [grid(20, 20, z)], 2).num_edges == 0
+    z[:, 10:] = 0.05
+    es = depth_jump_cannot_links([lab], [grid(20, 20, z)], 2)
+    assert es.edge_index.tolist() == [[0], [1]] and es.edge_attr["sign"].tolist() == [-1.0]
+
+
+def test_concave_crease_is_cannot_link_ridge_is_not():
+    # camera looks down +z (OpenCV); a valley (\/) is concave, a ridge (/\) convex
+    lab = np.zeros((40, 40), np.int64)
+    lab[:, 20:] = 1
+    x = (np.arange(40) - 19.5) * 0.002
+    valley = np.broadcast_to(0.5 - 0.5 * np.abs(x), (40, 40))
+    ridge = np.broadcast_to(0.5 + 0.5 * np.abs(x), (40, 40))
+    def links(z):
+        return depth_jump_cannot_links([lab], [grid(40, 40, z)], 2, concave=0.1, reach=4).num_edges
+    assert links(valley) == 1
+    assert links(ridge) == 0
+    assert depth_jump_cannot_links([lab], [grid(40, 40, valley)], 2, reach=4).num_edges == 0  # no jump without the concave test
+
+
+def test_same_view_rule():
+    lab = np.array([[0, -1, -1, 1]] * 12)  # two masks that do not touch
+    pts = grid(12, 4, np.zeros((12, 4)))
+    assert depth_jump_cannot_links([lab], [pts], 2, reach=1).num_edges == 0
+    assert depth_jump_cannot_links([lab], [pts], 2, reach=1, same_view=True).edge_index.tolist() == [[0], [1]]
+
+
+def test_adder_registered_and_options_validated():
+    g = CorrespondenceGraph.from_masks([np.array([[1, 1, 2, 2]])])
+    pts = grid(1, 4, np.array([[0, 0, 0.3, 0.3]]))
+    adder = edge_adders.resolve("depth_repulsion", min_pairs=1)
+    assert isinstance(adder, DepthRepulsion)
+    assert adder(g, Evidence.for_graph(g, points=[pts])).num_edges == 1
+    with pytest.raises(ValueError):
+        DepthRepulsion(jump=-1.0)
+    with pytest.raises(ValueError, match="world points"):
+        adder(g, Evidence.for_graph(g))

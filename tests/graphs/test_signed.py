@@ -1,0 +1,125 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from graphseg.graphs import contractors
+from graphseg.graphs.contract import canonical_cluster
+from graphseg.graphs.signed import (
+    ConstrainedUnionFindContraction,
+    CoreAttachContraction,
+    constrained_union_find,
+    core_attach_contraction,
+    edge_strength,
+    split_signed,
+)
+
+
+def components(ei, n):
+    ei = np.asarray(ei, np.int64).reshape(2, -1)
+    adj = coo_matrix((np.ones(ei.shape[1]), (ei[0], ei[1])), shape=(n, n))
+    return canonical_cluster(connected_components(adj, directed=False)[1])
+
+
+graphs = st.integers(1, 12).flatmap(
+    lambda n: st.tuples(
+        st.just(n),
+        st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)), max_size=30),
+        st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)), max_size=6),
+        st.lists(st.floats(0, 1), min_size=30, max_size=30),
+    )
+)
+
+
+def as_ei(pairs):
+    return np.array(pairs, np.int64).T.reshape(2, -1)
+
+
+def test_shape_and_dtype():
+    c = constrained_union_find(np.array([[0], [1]]), 4)
+    assert c.shape == (4,) and c.dtype == np.int64
+
+
+def test_strongest_edge_wins_against_cannot_link():
+    # 0-1 (0.2), 1-2 (0.9), cannot-link 0-2: 1 goes with 2, the weaker 0-1 is refused
+    c = constrained_union_find(np.array([[0, 1], [1, 2]]), 3, weight=[0.2, 0.9], cannot_link=[[0], [2]])
+    assert c.tolist() == [0, 1, 1]
+
+
+def test_constraint_moves_with_merged_clusters():
+    # 0-1 joined first; cannot-link 1-3; then 2-3; then 0-2 would join 1 and 3: refused
+    c = constrained_union_find(np.array([[0, 2, 0], [1, 3, 2]]), 4, weight=[3, 2, 1], cannot_link=[[1], [3]])
+    assert c[0] == c[1] and c[2] == c[3] and c[0] != c[2]
+
+
+def test_bad_weight_shape():
+    with pytest.raises(ValueError, match=r"weight of shape \[1\]"):
+        constrained_union_find(np.array([[0], [1]]), 2, weight=[1.0, 2.0])
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs)
+def test_never_joins_a_cannot_link_pair(data):
+    n, edges, cl, w = data
+    ei = as_ei(edges)
+    c = constrained_union_find(ei, n, weight=w[: ei.shape[1]], cannot_link=as_ei(cl))
+    for a, b in cl:
+        if a != b:
+            assert c[a] != c[b]
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs)
+def test_without_cannot_links_equals_components(data):
+    n, edges, _, w = data
+    ei = as_ei(edges)
+    assert constrained_union_find(ei, n, weight=w[: ei.shape[1]]).tolist() == components(ei, n).tolist()
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs, st.lists(st.booleans(), min_size=12, max_size=12))
+def test_core_attach_never_bridges_two_core_groups(data, core_bits):
+    n, edges, _, w = data
+    ei = as_ei(edges)
+    core = np.array(core_bits[:n])
+    c = core_attach_contraction(ei, n, core=core, weight=w[: ei.shape[1]])
+    both = core[ei[0]] & core[ei[1]] if ei.size else np.zeros(0, bool)
+    groups = components(ei[:, both], n)
+    for k in np.unique(c):
+        assert np.unique(groups[(c == k) & core]).size <= 1
+    # refines plain components
+    cc = components(ei, n)
+    for k in np.unique(c):
+        assert np.unique(cc[c == k]).size == 1
+
+
+def test_core_attach_all_core_is_components():
+    ei = np.array([[0, 2], [1, 3]])
+    assert core_attach_contraction(ei, 4, core=np.ones(4, bool)).tolist() == [0, 0, 1, 1]
+
+
+def test_core_attach_bad_core_shape():
+    with pytest.raises(ValueError, match=r"core of shape \[3\]"):
+        core_attach_contraction(np.zeros((2, 0), np.int64), 3, core=[True])
+
+
+def test_edge_strength_ranks_per_criterion():
+    s = edge_strength({"weight": np.array([5.0, 1.0, 0.1, 0.3]), "criterion": np.array(["a", "a", "b", "b"])}, 4)
+    assert s.tolist() == [1.0, 0.5, 0.5, 1.0]
+    assert edge_strength({}, 2).tolist() == [1.0, 1.0]
+
+
+def test_split_signed_nan_is_attractive():
+    pos, neg = split_signed(np.array([[0, 0], [1, 2]]), {"sign": np.array([np.nan, -1.0])})
+    assert pos.tolist() == [True, False] and neg.tolist() == [False, True]
+
+
+def test_registered_and_called_with_edge_attr():
+    c = contractors.resolve("constrained")
+    assert isinstance(c, ConstrainedUnionFindContraction) and c.uses_edge_attr
+    assert isinstance(contractors.resolve("core_attach"), CoreAttachContraction)
+    ei = np.array([[0, 1, 0], [1, 2, 2]])
+    out = c(ei, 3, edge_attr={"weight": np.array([0.9, 0.1, 1.0]), "sign": np.array([1.0, 1.0, -1.0]), "criterion": np.array(["p", "p", "r"])})
+    assert out.tolist() == [0, 0, 1]

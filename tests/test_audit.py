@@ -1,0 +1,97 @@
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from graphseg.audit import (
+    audit,
+    audit_html,
+    format_audit,
+    impure_masks,
+    lift_edges,
+    majority,
+    mask_gt_counts,
+    min_cut_edges,
+    wrong_edges,
+)
+from graphseg.graphs import CorrespondenceGraph, coarsen
+from graphseg.method.segment import segment
+from graphseg.testing.scenes import two_boxes_scene
+
+
+def test_mask_gt_counts_shape_and_values():
+    masks = [np.array([[1, 1, 2, 0]]), np.array([[1, 1, 1, 1]])]
+    gt = [np.array([[1, 2, 2, 2]]), np.array([[0, 0, 1, -1]])]
+    c = mask_gt_counts(masks, np.array([0, 0, 1]), np.array([0, 1, 0]), gt)
+    assert c.shape == (3, 3)
+    assert c.tolist() == [[0, 1, 1], [0, 0, 1], [3, 1, 0]]  # negative gt counts as background
+
+
+def test_mask_gt_counts_shape_mismatch():
+    with pytest.raises(ValueError, match="view 0"):
+        mask_gt_counts([np.zeros((2, 2), int)], np.array([0]), np.array([0]), [np.zeros((3, 2), int)])
+
+
+def test_majority_wrong_impure():
+    obj, share = majority(np.array([[0, 6, 4], [0, 0, 0]]))
+    assert obj.tolist() == [1, -1] and share.tolist() == [0.6, 0.0]
+    assert impure_masks(np.array([[0, 6, 4], [0, 9, 1]])).tolist() == [0]
+    assert wrong_edges(np.array([[0, 1], [1, 2]]), np.array([1, 1, -1])).tolist() == []  # unknown ends are not wrong
+
+
+def test_min_cut_is_the_bridge():
+    # two triangles joined by the single edge 2-3
+    ei = np.array([[0, 1, 0, 3, 4, 3, 2], [1, 2, 2, 4, 5, 5, 3]])
+    assert min_cut_edges(ei, np.array([0]), np.array([5])).tolist() == [6]
+    assert min_cut_edges(ei[:, :6], np.array([0]), np.array([5])).size == 0  # not connected
+    assert min_cut_edges(ei, np.array([0]), np.array([0])).size == 0
+
+
+def fake_run():
+    """Four masks in two views over two objects; one wrong edge merges them."""
+    masks = [np.array([[1, 1, 2, 2]]), np.array([[1, 1, 2, 2]])]
+    gt = [np.array([[1, 1, 2, 2]]), np.array([[1, 1, 2, 2]])]
+    g = CorrespondenceGraph.from_masks(masks)
+    ei = np.array([[0, 1, 0], [2, 3, 3]])  # 0-2 right, 1-3 right, 0-3 wrong
+    g = g.add_edges(ei, {"criterion": np.array(["pixel_match"] * 3), "weight": np.array([0.9, 0.8, 0.4]), "stage": np.zeros(3, np.int64)})
+    cluster = np.zeros(4, np.int64)
+    g1 = coarsen(g, cluster)
+    result = SimpleNamespace(graphs=[g, g1], mask_view=np.array([0, 0, 1, 1]), mask_id=np.array([0, 1, 0, 1]), mask_object=np.ones(4, np.int64))
+    scene = SimpleNamespace(views=[SimpleNamespace(instances=x) for x in gt], objects={1: "box", 2: "can"})
+    return result, scene
+
+
+def test_audit_finds_the_wrong_edge_and_its_cut():
+    result, scene = fake_run()
+    rep = audit(result, scene)
+    json.dumps(rep)
+    assert rep["summary"]["wrong_edges"] == [1, 0] and rep["summary"]["merge_errors"] == 1
+    assert rep["stages"][0]["wrong_edges"][0]["objects"] == ["box", "can"]
+    (merge,) = rep["merge_errors"]
+    assert merge["gt"] == ["box", "can"] and len(merge["cut"]) == 1 and merge["cut"][0]["edge"] == 2
+    assert "merges box and can" in format_audit(rep)
+    assert audit_html(rep).startswith("<h2>Edge audit</h2>")
+
+
+def test_lift_edges_uses_largest_member():
+    result, _ = fake_run()
+    ei, stage, idx = lift_edges(result.graphs, np.array([1.0, 5.0, 2.0, 2.0]))
+    assert ei.shape == (2, 3) and stage.tolist() == [0, 0, 0] and idx.tolist() == [0, 1, 2]
+
+
+def test_audit_clean_run_and_missing_gt():
+    scene, masks, matches = two_boxes_scene()
+    rep = audit(segment(scene, masks, matches), scene)
+    assert rep["summary"]["merge_errors"] == 0 and rep["summary"]["wrong_edges"] == [0, 0]
+    bare = SimpleNamespace(views=[SimpleNamespace(instances=None)])
+    with pytest.raises(ValueError, match="ground-truth"):
+        audit(segment(scene, masks, matches), bare)
+
+
+def test_cannot_links_are_not_wrong_edges():
+    result, scene = fake_run()
+    g = result.graphs[0].add_edges(np.array([[0, 0], [1, 2]]), {"criterion": np.array(["depth_repulsion"] * 2), "sign": -np.ones(2), "stage": np.zeros(2, np.int64)})
+    result.graphs = [g, result.graphs[1]]
+    st = audit(result, scene)["stages"][0]
+    assert st["wrong"] == 1 and st["cannot_links"] == 2 and st["wrong_cannot_links"] == 1  # 0-2 is one object
