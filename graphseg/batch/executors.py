@@ -210,7 +210,7 @@ class RayExecutor:
             return
         started = False
         if not ray.is_initialized():
-            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+            kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "logging_level": "WARNING"}
             if self.address is None:
                 ray.init(num_cpus=self.num_cpus, **kwargs)
             else:
