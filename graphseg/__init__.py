@@ -11,7 +11,7 @@ from typing import Any
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result"]
+__all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result", "run_job", "evaluate_output"]
 
 
 def __getattr__(name: str) -> Any:  # lazy top-level API (PEP 562)
@@ -27,6 +27,10 @@ def __getattr__(name: str) -> Any:  # lazy top-level API (PEP 562)
         from .config import Config
 
         return Config
+    if name in ("run_job", "evaluate_output"):
+        from . import job
+
+        return getattr(job, name)
     if name == "Result":
         from .result import Result
 

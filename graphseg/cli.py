@@ -1,7 +1,9 @@
-"""The ``graphseg`` command.
+"""The ``graphseg`` command: parses arguments and prints; the work is :func:`graphseg.job.run_job`.
 
-Exit codes: 0 success; 2 bad input (one line naming the file and the field, no
-traceback, no output folder left behind); 1 internal error.
+Exit codes: 0 success; 2 bad input (one line ``graphseg: error: FILE: FIELD: what
+is wrong``, no traceback, nothing left behind); 1 internal error (one line; pass
+``--debug`` for the traceback); 130 / 143 when interrupted by SIGINT / SIGTERM
+("interrupted; nothing written").
 
 Commands: ``run``, ``eval``, ``synth``, ``demo``, ``export``, ``info``
 (``graphseg COMMAND --help`` for each).
@@ -10,75 +12,97 @@ Commands: ``run``, ``eval``, ``synth``, ``demo``, ``export``, ``info``
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
 import sys
 import time
 import traceback
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "parse_backend_option"]
 
 
 class BadInput(Exception):
     """A user-facing input problem (exit code 2)."""
 
 
+class Terminated(KeyboardInterrupt):
+    """Raised by the SIGTERM handler so that every ``finally`` cleans up."""
+
+
 def _views_args(p: argparse.ArgumentParser) -> None:
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--views", help="comma-separated view indices or names, e.g. 0,5,10")
+    g.add_argument("--views", help="comma-separated view names or indices, e.g. 000001,000006 or 0,5,10 (each entry is matched against the view names first, then read as an index)")
     g.add_argument("--step", type=int, help="every N-th view")
     g.add_argument("--num-views", type=int, help="N views evenly spaced")
+
+
+def _common(p: argparse.ArgumentParser, *, overwrite: bool = False) -> None:
+    p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help="print the traceback of an internal error")
+    p.add_argument("--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress bars, no third-party banners or warnings")
+    if overwrite:
+        p.add_argument("--overwrite", action="store_true", help="replace an existing target that is not an earlier graphseg output of this command (never an input of the command)")
 
 
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="graphseg", description="Consistent object-level 3D segments from a few RGB(-D) views (GraphSeg).")
     ap.add_argument("--version", action="store_true", help="print the version and exit")
+    ap.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
+    ap.add_argument("--quiet", action="store_true", help="no progress bars, no third-party banners or warnings")
     sub = ap.add_subparsers(dest="command")
 
     r = sub.add_parser("run", help="segment a scene and write the output folder")
     r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP)")
-    r.add_argument("-o", "--out", required=True, help="output folder (replaced if it exists)")
-    r.add_argument("--config", help="YAML/JSON config file (overrides --preset)")
-    r.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="configuration preset when no --config is given (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds)")
+    r.add_argument("-o", "--out", required=True, help="output folder: must not exist, or be an earlier `graphseg run` output (else pass --overwrite)")
+    r.add_argument("--config", help="YAML/JSON config file; its keys override the --preset in use")
+    r.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds); --config overrides it key by key")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has no point maps)")
+    r.add_argument("--backend-option", action="append", default=[], metavar="NAME.KEY=VALUE", help="option KEY of backend NAME (VALUE read as a YAML scalar); repeatable; stored in config backends.options")
     r.add_argument("--masks", help="folder of precomputed masks per view (NAME.png label images or NAME.npz bool stacks); implies --segmenter precomputed")
     r.add_argument("--parts", type=int, help="parts per object for the oracle-parts segmenter (evaluation only)")
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
-    r.add_argument("--seed", type=int, help="random seed")
-    r.add_argument("--quiet", action="store_true", help="no progress bars")
+    r.add_argument("--seed", type=int, help="random seed (>= 0)")
     _views_args(r)
+    _common(r, overwrite=True)
 
     e = sub.add_parser("eval", help="print the metrics of an output folder against ground truth")
     e.add_argument("out", help="output folder of graphseg run")
-    e.add_argument("--scene", help="scene with ground truth (default: the one recorded in run.json)")
-    e.add_argument("--json", help="also write the metrics to this JSON file")
+    e.add_argument("--scene", help="scene with ground truth (default: the one recorded in run.json); its view names must match")
+    e.add_argument("--json", help="also write the metrics to this JSON file (a new file, or --overwrite)")
+    _common(e, overwrite=True)
 
     s = sub.add_parser("synth", help="render a synthetic scene with exact ground truth (needs pybullet: graphseg[sim])")
-    s.add_argument("-o", "--out", required=True)
+    s.add_argument("-o", "--out", required=True, help="scene folder to write: must not exist, or be an earlier `graphseg synth` output")
     s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--objects", type=int, default=6)
-    s.add_argument("--views", type=int, default=8)
+    s.add_argument("--objects", type=int, default=6, help="objects dropped on the table (1..16); those that fall off are reported")
+    s.add_argument("--views", type=int, default=8, help="number of views (1..360)")
     s.add_argument("--size", default="640x480", help="WIDTHxHEIGHT")
+    _common(s, overwrite=True)
 
     d = sub.add_parser("demo", help="synthesise a scene, segment it, evaluate and write a report")
     d.add_argument("-o", "--out", default="graphseg-demo")
     d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--views", type=int, default=8)
-    d.add_argument("--objects", type=int, default=6)
+    d.add_argument("--views", type=int, default=8, help="number of views (1..360)")
+    d.add_argument("--objects", type=int, default=6, help="objects (1..16)")
     d.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"])
-    d.add_argument("--quiet", action="store_true")
+    _common(d, overwrite=True)
 
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
     x.add_argument("out")
-    x.add_argument("--graphml", help="write the 2D graph as GraphML here (the 3D graph goes next to it as *_3d.graphml)")
-    x.add_argument("--pyg", help="write the 2D graph as a torch file of PyG tensors (needs graphseg[torch])")
+    x.add_argument("--stage", type=int, help="stage to export (0 = the mask graph); default: every stage for --graphml, stage 0 for --pyg")
+    x.add_argument("--graphml", help="write the graph of --stage as GraphML here; without --stage, stage 0 here and stage S next to it as NAME_stageS.graphml")
+    x.add_argument("--pyg", help="write the graph of --stage (default 0) as a dict of torch tensors, readable with plain torch.load(path) (needs graphseg[torch])")
     x.add_argument("--ply", help="write one PLY per object into this folder")
+    _common(x, overwrite=True)
 
     i = sub.add_parser("info", help="describe an output folder or a scene")
     i.add_argument("path")
+    _common(i)
 
     b = sub.add_parser("batch", help="run many scenes x methods x view counts (resumable; local processes or Ray)")
     b.add_argument("scenes", nargs="*", help="scene folders, glob patterns, or a dataset root with --split / --videos")
@@ -99,7 +123,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--ray-gpus", default="auto", help="GPUs per Ray task (auto: 1 for model backends when the cluster has GPUs)")
     b.add_argument("--retries", type=int, default=2, help="Ray retries of a task whose worker died")
     b.add_argument("--report", metavar="OUT", help="only rebuild the aggregate of an existing batch folder")
-    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    _common(b)
     return ap
 
 
@@ -109,19 +133,23 @@ def _parse_size(text: str) -> tuple[int, int]:
         w, h = (int(t) for t in text.lower().split("x"))
     except ValueError as err:
         raise BadInput(f"--size: expected WIDTHxHEIGHT (got {text!r})") from err
-    if w < 16 or h < 16:
-        raise BadInput(f"--size: too small ({w}x{h})")
+    if w < 16 or h < 16 or w > 8192 or h > 8192:
+        raise BadInput(f"--size: expected sides of 16..8192 pixels (got {w}x{h})")
     return w, h
 
 
 def _selection(args: argparse.Namespace) -> dict[str, Any]:
     from .io import parse_views
 
-    return {
-        "views": parse_views(args.views) if getattr(args, "views", None) else None,
-        "step": getattr(args, "step", None),
-        "num_views": getattr(args, "num_views", None),
-    }
+    step, num = getattr(args, "step", None), getattr(args, "num_views", None)
+    if step is not None and step < 1:
+        raise BadInput(f"--step: expected an integer >= 1 (got {step})")
+    if num is not None and num < 1:
+        raise BadInput(f"--num-views: expected an integer >= 1 (got {num})")
+    views = parse_views(args.views) if getattr(args, "views", None) is not None else None
+    if views is not None and not views:
+        raise BadInput(f"--views: expected comma-separated view names or indices (got {args.views!r})")
+    return {"views": views, "step": step, "num_views": num}
 
 
 def _metrics_table(metrics: dict[str, Any]) -> str:
@@ -134,44 +162,52 @@ def _metrics_table(metrics: dict[str, Any]) -> str:
         return f"{v:>10.2e}" if k == "chamfer" else f"{v:>10.4f}"
 
     for o in metrics["objects"]:
-        lines.append(f"{str(o.get('name', o['id']))[:27]:<28}" + "".join(f(o.get(k), k) for k in keys))
+        lines.append(f"{_printable(str(o.get('name', o['id'])))[:27]:<28}" + "".join(f(o.get(k), k) for k in keys))
     m = metrics["mean"]
     lines.append(f"{'mean':<28}" + "".join(f(m.get(k), k) for k in keys))
     lines.append(f"pixel utility: {m['pixel_utility']:.4f}" if m.get("pixel_utility") is not None else "pixel utility: -")
     return "\n".join(lines)
 
 
-def _evaluate(result: Any, scene: Any) -> dict[str, Any] | None:
-    from .metrics import evaluate
+def _printable(text: str) -> str:
+    """``text`` with control characters and unencodable characters escaped, so it prints on one line."""
+    enc = getattr(sys.stdout, "encoding", None) or "utf-8"
+    out = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+    return out.encode(enc, errors="backslashreplace").decode(enc, errors="replace")
 
-    if not scene.has_instances or not scene.has_points:
-        return None
-    return evaluate(result.labels, [v.instances for v in scene.views], [v.points for v in scene.views], names=scene.objects)
+
+def _warn(text: str, args: argparse.Namespace) -> None:
+    """One line on stderr (shown with --quiet too: it is about the user's result)."""
+    print(_printable(f"graphseg: warning: {text}"), file=sys.stderr)
 
 
-def _run_scene(scene: Any, cfg: Any, out: Path, *, segmenter: Any, matcher: Any, lifter: Any, progress: bool, run_info: dict[str, Any]) -> tuple[Any, dict[str, Any] | None, Path]:
-    from .output import write_output
-    from .pipeline import lift, run
+def _flag(args: argparse.Namespace, name: str) -> bool:
+    return bool(getattr(args, name, False))
 
-    scene = lift(scene, lifter, cfg)  # lifted once: run() reuses it and the metrics need its points
-    result = run(scene, cfg, segmenter=segmenter, matcher=matcher, progress=progress)
-    metrics = _evaluate(result, scene)
+
+def parse_backend_option(text: str) -> tuple[str, str, Any]:
+    """``"NAME.KEY=VALUE"`` -> ``(NAME, KEY, value)``, VALUE read as a YAML scalar.
+
+    Examples
+    --------
+    >>> parse_backend_option("geometric.min_area=200")
+    ('geometric', 'min_area', 200)
+    >>> parse_backend_option("precomputed.folder=/data/masks")
+    ('precomputed', 'folder', '/data/masks')
+    """
+    from .config import load_yaml_text
+
+    lhs, eq, value = text.partition("=")
+    name, dot, key = lhs.strip().partition(".")
+    if not eq or not dot or not name or not key:
+        raise BadInput(f"--backend-option: expected NAME.KEY=VALUE (got {text!r})")
     try:
-        path = write_output(out, result, scene, metrics=metrics, run_info=run_info)
-    except OSError as err:
-        raise BadInput(f"{out}: output: cannot write ({err.strerror or err})") from err
-    return result, metrics, path
-
-
-def _check_output_target(out: Path) -> None:
-    parent = out.resolve().parent
-    probe = parent
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise BadInput(f"{out}: output: the parent path {probe} is not a folder")
-    if out.exists() and not out.is_dir():
-        raise BadInput(f"{out}: output: exists and is not a folder")
+        parsed = load_yaml_text(value, max_nodes=1000) if value.strip() else None
+    except ValueError as err:
+        raise BadInput(f"--backend-option: {name}.{key}: cannot read the value ({str(err).splitlines()[0]})") from err
+    if isinstance(parsed, (dict, list)) and value.strip()[:1] not in "[{":
+        parsed = value
+    return name, key, parsed
 
 
 def _config(args: argparse.Namespace) -> Any:
@@ -186,16 +222,22 @@ def _config(args: argparse.Namespace) -> Any:
         if not path.is_file():
             raise BadInput(f"{path}: config: file not found")
         try:
-            cfg = Config.load(path)
+            cfg = Config.load(path, base=cfg)
         except ValidationError as err:
             first = err.errors()[0]
             raise BadInput(f"{path}: {'.'.join(str(x) for x in first['loc'])}: {first['msg']}") from err
-        except (yaml.YAMLError, json.JSONDecodeError, ValueError) as err:
-            raise BadInput(f"{path}: config: {str(err).splitlines()[0]}") from err
-    if getattr(args, "seed", None) is not None:
-        cfg = cfg.model_copy(update={"seed": args.seed})
+        except (yaml.YAMLError, json.JSONDecodeError, ValueError, UnicodeDecodeError, RecursionError) as err:
+            raise BadInput(f"{path}: config: {(str(err) or type(err).__name__).splitlines()[0]}") from err
+    seed = getattr(args, "seed", None)
+    if seed is not None:
+        if seed < 0:
+            raise BadInput(f"--seed: expected an integer >= 0 (got {seed})")
+        cfg = cfg.model_copy(update={"seed": seed})
     if getattr(args, "no_3d", False):
         cfg = cfg.without_3d()
+    for text in getattr(args, "backend_option", None) or []:
+        name, key, value = parse_backend_option(text)
+        cfg = _with_backend_options(cfg, name, **{key: value})
     if getattr(args, "masks", None):
         folder = Path(args.masks)
         if not folder.is_dir():
@@ -205,6 +247,8 @@ def _config(args: argparse.Namespace) -> Any:
         args.segmenter = "precomputed"
         cfg = _with_backend_options(cfg, "precomputed", folder=str(folder.resolve()))
     if getattr(args, "parts", None) is not None:
+        if args.parts < 1:
+            raise BadInput(f"--parts: expected an integer >= 1 (got {args.parts})")
         cfg = _with_backend_options(cfg, "oracle-parts", parts=args.parts)
     return cfg
 
@@ -216,47 +260,59 @@ def _with_backend_options(cfg: Any, backend: str, **options: Any) -> Any:
     return cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
 
 
+def _print_job(job: Any, args: argparse.Namespace, t: float) -> None:
+    for w in job.warnings:
+        _warn(w, args)
+    print(f"{job.result.num_objects} objects in {len(job.scene)} views ({time.perf_counter() - t:.1f} s)")
+    if job.metrics:
+        print(_metrics_table(job.metrics))
+    print(_printable(f"output: {job.out}"))
+    print(_printable(f"report: {job.out / 'report.html'}"))
+
+
 # ----------------------------------------------------------------------------- commands
 def cmd_run(args: argparse.Namespace) -> int:
-    from .io import detect_format, load_scene
+    from .job import run_job
 
-    out = Path(args.out)
     cfg = _config(args)
-    fmt = detect_format(args.scene)
-    scene = load_scene(args.scene, format=fmt, **_selection(args))
-    _check_output_target(out)
+    sel = _selection(args)
+    inputs = [p for p in (getattr(args, "masks", None), getattr(args, "config", None)) if p]
     t = time.perf_counter()
-    info = {"scene": str(Path(args.scene).resolve()), "format": fmt, "views": [v.name for v in scene.views]}
-    result, metrics, path = _run_scene(scene, cfg, out, segmenter=args.segmenter, matcher=args.matcher, lifter=args.lifter, progress=not args.quiet, run_info=info)
-    print(f"{result.num_objects} objects in {len(scene)} views ({time.perf_counter() - t:.1f} s)")
-    if metrics:
-        print(_metrics_table(metrics))
-    print(f"output: {path}")
-    print(f"report: {path / 'report.html'}")
+    job = run_job(
+        args.scene,
+        args.out,
+        cfg,
+        segmenter=args.segmenter,
+        matcher=args.matcher,
+        lifter=args.lifter,
+        overwrite=args.overwrite,
+        progress=not _flag(args, "quiet"),
+        inputs=inputs,
+        **sel,
+    )
+    _print_job(job, args, t)
     return 0
 
 
-def cmd_eval(args: argparse.Namespace) -> int:
-    from .io import load_scene
-    from .output import read_output
-    from .pipeline import lift
+def _write_json_file(path: str, doc: Any, *, inputs: list[str], overwrite: bool) -> None:
+    from .output import atomic_file, check_target
 
-    result, info = read_output(args.out)
-    scene_path = args.scene or info.get("scene")
-    if not scene_path:
-        raise BadInput(f"{args.out}: scene: run.json names no scene; pass --scene")
-    scene = load_scene(scene_path, format=info.get("format") if not args.scene else None, views=result.view_names)
-    if [v.name for v in scene.views] != result.view_names:
-        raise BadInput(f"{scene_path}: views: the scene's views differ from the result's")
-    if not scene.has_instances:
-        raise BadInput(f"{scene_path}: instances: the scene has no ground truth")
-    scene = lift(scene, None, result.config)
-    metrics = _evaluate(result, scene)
-    assert metrics is not None
+    target = check_target(path, "export", inputs=inputs, overwrite=overwrite, folder=False)
+    with atomic_file(target) as tmp:
+        tmp.write_text(json.dumps(doc, indent=2), encoding="utf-8")
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from .job import evaluate_output
+    from .output import check_target
+
+    if args.json:
+        check_target(args.json, "export", inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, folder=False)
+    metrics = evaluate_output(args.out, args.scene)
     print(_metrics_table(metrics))
     if args.json:
-        Path(args.json).write_text(json.dumps(metrics, indent=2))
-        print(f"wrote {args.json}")
+        _write_json_file(args.json, metrics, inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite)
+        print(_printable(f"wrote {args.json}"))
     return 0
 
 
@@ -267,31 +323,48 @@ def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int]) -> A
     return synthesize(seed=seed, objects=objects, views=views, size=size)
 
 
+def _check_synth_args(args: argparse.Namespace) -> None:
+    from .sim.pybullet_scenes import MAX_OBJECTS
+
+    if args.seed < 0:
+        raise BadInput(f"--seed: expected an integer >= 0 (got {args.seed})")
+    if not 1 <= args.objects <= MAX_OBJECTS:
+        raise BadInput(f"--objects: expected 1..{MAX_OBJECTS} (got {args.objects})")
+    if not 1 <= args.views <= 360:
+        raise BadInput(f"--views: expected 1..360 (got {args.views})")
+
+
+def _fell_off(scene: Any, args: argparse.Namespace) -> None:
+    fell = scene.meta.get("fell_off") or []
+    if fell:
+        _warn(f"{len(fell)} of {len(fell) + len(scene.objects)} objects fell off the table: {', '.join(map(str, fell))}", args)
+
+
 def cmd_synth(args: argparse.Namespace) -> int:
-    from .io import write_scene_folder
+    from .io.scene_folder import fill_scene_folder
+    from .output import atomic_folder, check_target
 
     size = _parse_size(args.size)
-    out = Path(args.out)
-    _check_output_target(out)
+    _check_synth_args(args)
+    out = check_target(args.out, "synth", overwrite=args.overwrite)
     t = time.perf_counter()
     scene = _synthesize(args.seed, args.objects, args.views, size)
-    try:
-        write_scene_folder(scene, out, overwrite=True)
-    except OSError as err:
-        raise BadInput(f"{out}: output: cannot write ({err.strerror or err})") from err
-    print(f"wrote {out} ({len(scene)} views, {len(scene.objects)} objects, {time.perf_counter() - t:.1f} s)")
+    with atomic_folder(out, "synth") as tmp:
+        fill_scene_folder(scene, tmp)
+    _fell_off(scene, args)
+    print(_printable(f"wrote {args.out} ({len(scene)} views, {len(scene.objects)} objects, {time.perf_counter() - t:.1f} s)"))
     return 0
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    import warnings
-
     from .config import Config
-    from .io import write_scene_folder
+    from .io.scene_folder import fill_scene_folder
+    from .job import run_job
+    from .output import MARKER, atomic_folder, check_target, fill_output
     from .registry import MissingDependencyError
 
-    out = Path(args.out)
-    _check_output_target(out)
+    _check_synth_args(args)
+    out = check_target(args.out, "demo", overwrite=args.overwrite)
     t0 = time.perf_counter()
     try:
         scene = _synthesize(args.seed, args.objects, args.views, (640, 480))
@@ -299,43 +372,68 @@ def cmd_demo(args: argparse.Namespace) -> int:
     except MissingDependencyError:
         from .testing.scenes import demo_box_scene
 
-        warnings.warn("pybullet is not installed (pip install \"graphseg[sim]\"); the demo uses the built-in box renderer", stacklevel=1)
+        _warn('pybullet is not installed (pip install "graphseg[sim]"); the demo uses the built-in box renderer', args)
         scene = demo_box_scene(seed=args.seed, views=args.views, objects=args.objects)
         source = "boxes"
-    out.mkdir(parents=True, exist_ok=True)
-    write_scene_folder(scene, out / "scene", overwrite=True)
-    info = {"scene": str((out / "scene").resolve()), "format": "native", "views": [v.name for v in scene.views], "source": source}
-    result, metrics, path = _run_scene(scene, Config.preset(args.preset, seed=args.seed), out / "output", segmenter=None, matcher=None, lifter=None, progress=not args.quiet, run_info=info)
-    print(f"demo: {len(scene)} views, {len(scene.objects)} objects ({source}); found {result.num_objects} objects in {time.perf_counter() - t0:.1f} s")
-    if metrics:
-        print(_metrics_table(metrics))
-    print(f"report: {path / 'report.html'}")
+    _fell_off(scene, args)
+    job = run_job(scene, None, Config.preset(args.preset, seed=args.seed), progress=not _flag(args, "quiet"))
+    info = {"scene": str(out / "scene"), "format": "native", "views": [v.name for v in scene.views], "source": source}
+    with atomic_folder(out, "demo") as tmp:
+        fill_scene_folder(scene, tmp / "scene")
+        (tmp / "output").mkdir()
+        (tmp / "output" / MARKER).write_text(json.dumps({"kind": "run", "version": 1}), encoding="utf-8")
+        fill_output(tmp / "output", job.result, job.scene, metrics=job.metrics, run_info=info)
+    for w in job.warnings:
+        _warn(w, args)
+    print(f"demo: {len(scene)} views, {len(scene.objects)} objects ({source}); found {job.result.num_objects} objects in {time.perf_counter() - t0:.1f} s")
+    if job.metrics:
+        print(_metrics_table(job.metrics))
+    print(_printable(f"report: {out / 'output' / 'report.html'}"))
     return 0
 
 
 def cmd_export(args: argparse.Namespace) -> int:
     from .graphs import to_pyg, write_graphml
-    from .output import read_output, write_object_clouds
+    from .output import atomic_file, atomic_folder, check_target, read_output, write_object_clouds
 
-    result, _ = read_output(args.out)
     if not (args.graphml or args.pyg or args.ply):
         raise BadInput(f"{args.out}: export: name at least one of --graphml, --pyg, --ply")
+    result, _ = read_output(args.out)
+    n = len(result.graphs)
+    if args.stage is not None and not 0 <= args.stage < n:
+        raise BadInput(f"{args.out}: --stage: expected 0..{n - 1} (got {args.stage})")
+    inputs = [args.out]
+    files: list[tuple[Path, Any]] = []  # (target, writer)
     if args.graphml:
-        write_graphml(result.graph_2d, args.graphml)
-        print(f"wrote {args.graphml}")
-        if result.graph_3d is not None:
-            p = Path(args.graphml)
-            p3 = p.with_name(p.stem + "_3d" + p.suffix)
-            write_graphml(result.graph_3d, p3)
-            print(f"wrote {p3}")
+        p = Path(args.graphml)
+        stages = [args.stage] if args.stage is not None else list(range(n))
+        for s in stages:
+            target = p if (args.stage is not None or s == 0) else p.with_name(f"{p.stem}_stage{s}{p.suffix}")
+            files.append((target, lambda tmp, g=result.graphs[s]: write_graphml(g, tmp)))
     if args.pyg:
-        import torch
+        from .registry import require
 
-        torch.save(to_pyg(result.graph_2d), args.pyg)
-        print(f"wrote {args.pyg}")
-    if args.ply:
-        n = write_object_clouds(result, args.ply)
-        print(f"wrote {n} PLY files to {args.ply}")
+        torch = require("torch", "torch")
+        g = result.graphs[args.stage or 0]
+
+        def save_pyg(tmp: Path, g: Any = g) -> None:
+            data = to_pyg(g)
+            plain = dict(data.to_dict()) if hasattr(data, "to_dict") else dict(data)
+            torch.save(plain, tmp)
+
+        files.append((Path(args.pyg), save_pyg))
+    checked = [(check_target(t, "export", inputs=inputs, overwrite=args.overwrite, folder=False), w) for t, w in files]
+    if len({t for t, _ in checked}) != len(checked):
+        raise BadInput(f"{args.out}: export: two exports name the same file")
+    ply = check_target(args.ply, "export", inputs=inputs + [t for t, _ in checked], overwrite=args.overwrite) if args.ply else None
+    for target, writer in checked:
+        with atomic_file(target) as tmp:
+            writer(tmp)
+        print(_printable(f"wrote {target}"))
+    if ply is not None:
+        with atomic_folder(ply, "export") as tmp:
+            k = write_object_clouds(result, tmp)
+        print(_printable(f"wrote {k} PLY files to {args.ply}"))
     return 0
 
 
@@ -346,25 +444,29 @@ def cmd_info(args: argparse.Namespace) -> int:
     p = Path(args.path)
     if (p / RESULT_FILE).exists():
         result, info = read_output(p)
-        print(f"graphseg output: {p}")
-        print(f"  scene: {info.get('scene', '?')}")
-        print(f"  views: {len(result.view_names)} ({', '.join(result.view_names[:8])}{' ...' if len(result.view_names) > 8 else ''})")
+        print(_printable(f"graphseg output: {p}"))
+        print(_printable(f"  scene: {info.get('scene', '?')}"))
+        print(_printable(f"  views: {len(result.view_names)} ({', '.join(result.view_names[:8])}{' ...' if len(result.view_names) > 8 else ''})"))
         print(f"  objects: {result.num_objects}")
-        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(s) for s in result.config.stages)}")
+        print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(str(a) for a in s) for s in result.config.stages)}")
         for s, g in enumerate(result.graphs):
             print(f"  stage {s}: {g.num_nodes} nodes, {g.num_edges} edges")
-        if (p / "metrics.json").exists():
-            m = json.loads((p / "metrics.json").read_text())["mean"]
-            print("  mean: " + ", ".join(f"{k}={v:.4f}" for k, v in m.items() if isinstance(v, (int, float))))
+        mj = p / "metrics.json"
+        if mj.is_file():
+            try:
+                m = json.loads(mj.read_text(encoding="utf-8"))["mean"]
+                print("  mean: " + ", ".join(f"{k}={v:.4f}" for k, v in m.items() if isinstance(v, (int, float))))
+            except (ValueError, KeyError, TypeError, AttributeError) as err:
+                raise BadInput(f"{mj}: metrics.json: malformed ({type(err).__name__})") from err
         return 0
     fmt = detect_format(p)
     scene = load_scene(p, format=fmt)
     h, w = scene.views[0].shape
-    print(f"scene: {p} (format {fmt})")
+    print(_printable(f"scene: {p} (format {fmt})"))
     print(f"  views: {len(scene)} of {w}x{h}")
     print(f"  depth: {'yes' if scene.has_depth else 'no'}; poses: {'yes' if scene.has_poses else 'no'}; ground truth: {'yes' if scene.has_instances else 'no'}")
     if scene.objects:
-        print(f"  objects: {', '.join(f'{k}={n}' for k, n in sorted(scene.objects.items()))}")
+        print(_printable(f"  objects: {', '.join(f'{k}={n}' for k, n in sorted(scene.objects.items()))}"))
     return 0
 
 
@@ -382,7 +484,7 @@ def _num_views_list(text: str) -> list[int | None]:
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
-    from .batch import LocalExecutor, RayExecutor, rebuild_report, run_batch
+    from .batch import LocalExecutor, RayExecutor, rebuild_report
 
     if args.report:
         s = rebuild_report(args.report)
@@ -402,7 +504,23 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if args.ray or args.ray_address:
         executor = RayExecutor(args.ray_address, num_cpus=args.jobs if args.jobs > 1 else None, cpus_per_task=args.ray_cpus, gpus_per_task=gpus, max_retries=args.retries)
     methods = [m.strip() for m in args.method.split(",") if m.strip()] if args.method else None
-    s = run_batch(
+    try:
+        s = _run_batch(args, executor, methods)
+    except KeyboardInterrupt as err:  # Terminated too
+        print(f"graphseg: interrupted; finished outputs are kept in {args.out} (run again to resume)", file=sys.stderr)
+        return 143 if isinstance(err, Terminated) else 130
+    print(f"{s.tasks} tasks: {s.ok} finished ({s.skipped} already done), {s.failed} failed ({s.seconds:.1f} s)")
+    for r in s.records:
+        if r["status"] != "ok":
+            print(_printable(f"failed: {r['scene']} ({r['label']}, views {r['num_views'] or 'all'}): {r['error']}"))
+    print(f"aggregate: {s.files['md']}")
+    return s.exit_code
+
+
+def _run_batch(args: argparse.Namespace, executor: Any, methods: list[str] | None) -> Any:
+    from .batch import run_batch
+
+    return run_batch(
         args.scenes,
         args.out,
         methods=methods,
@@ -413,17 +531,59 @@ def cmd_batch(args: argparse.Namespace) -> int:
         videos=[v.strip() for v in args.videos.split(",") if v.strip()] if args.videos else None,
         backends={"segmenter": args.segmenter, "matcher": args.matcher, "lifter": args.lifter},
         executor=executor,
-        progress=not args.quiet,
+        progress=not _flag(args, "quiet"),
     )
-    print(f"{s.tasks} tasks: {s.ok} finished ({s.skipped} already done), {s.failed} failed ({s.seconds:.1f} s)")
-    for r in s.records:
-        if r["status"] != "ok":
-            print(f"failed: {r['scene']} ({r['label']}, views {r['num_views'] or 'all'}): {r['error']}")
-    print(f"aggregate: {s.files['md']}")
-    return s.exit_code
 
 
 COMMANDS = {"batch": cmd_batch, "run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_demo, "export": cmd_export, "info": cmd_info}
+
+
+@contextlib.contextmanager
+def _signals() -> Iterator[None]:
+    """SIGTERM raises :class:`Terminated` and SIGINT KeyboardInterrupt, once: later signals are
+    ignored so that the cleanup of temporary files in ``finally`` blocks is not cut short."""
+
+    def on_term(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise Terminated()
+
+    def on_int(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise KeyboardInterrupt()
+
+    try:
+        old = signal.signal(signal.SIGTERM, on_term), signal.signal(signal.SIGINT, on_int)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old[0])
+        signal.signal(signal.SIGINT, old[1])
+
+
+@contextlib.contextmanager
+def _quiet(enabled: bool) -> Iterator[None]:
+    import warnings
+
+    from .io.images import quiet_opencv
+
+    with contextlib.suppress(Exception):
+        quiet_opencv()
+    if not enabled:
+        yield
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        yield
+
+
+def _error(text: str) -> None:
+    first = (text.splitlines() or [""])[0]
+    print(_printable(f"graphseg: error: {first}"), file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -445,23 +605,40 @@ def main(argv: list[str] | None = None) -> int:
         ap.print_help()
         return 2
     try:
-        return COMMANDS[args.command](args)
+        with _signals(), _quiet(_flag(args, "quiet")):
+            return COMMANDS[args.command](args)
     except (SceneError, BadInput, PluginNotFoundError, MissingDependencyError, GraphValidationError) as err:
-        print(f"graphseg: error: {err}".splitlines()[0], file=sys.stderr)
+        _error(str(err))
         return 2
     except ValidationError as err:
         first = err.errors()[0]
         loc = ".".join(str(x) for x in first["loc"])
-        print(f"graphseg: error: {getattr(args, 'config', None) or 'config'}: {loc}: {first['msg']}", file=sys.stderr)
+        _error(f"{getattr(args, 'config', None) or 'config'}: {loc}: {first['msg']}")
         return 2
-    except FileNotFoundError as err:
-        print(f"graphseg: error: {err.filename}: path: not found", file=sys.stderr)
-        return 2
+    except Terminated:
+        print("graphseg: interrupted; nothing written", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
+        print("graphseg: interrupted; nothing written", file=sys.stderr)
         return 130
-    except Exception:
-        traceback.print_exc()
-        print("graphseg: internal error (see the traceback above)", file=sys.stderr)
+    except MemoryError:
+        if _flag(args, "debug"):
+            traceback.print_exc()
+        _error("out of memory; select fewer views (--num-views / --step) or smaller images")
+        return 1
+    except OSError as err:
+        name = str(err.filename or getattr(args, "out", None) or "path")
+        what = "not found" if isinstance(err, FileNotFoundError) else (err.strerror or str(err))
+        if ".graphseg-tmp-" in name:  # failed while writing: name the target, not the temporary
+            _error(f"{getattr(args, 'out', None) or name}: output: cannot write ({what}); nothing written")
+        else:
+            _error(f"{name}: path: {what}")
+        return 2
+    except Exception as err:
+        if _flag(args, "debug"):
+            traceback.print_exc()
+        text = (str(err).splitlines() or [""])[0]
+        print(_printable(f"graphseg: internal error: {type(err).__name__}: {text} (run again with --debug for the traceback)"), file=sys.stderr)
         return 1
 
 

@@ -36,6 +36,7 @@ __all__ = [
     "OutputConfig",
     "BackendConfig",
     "PRESETS",
+    "load_yaml_text",
 ]
 
 
@@ -61,6 +62,13 @@ class BackgroundConfig(_Model):
         "auto", description="pixels farther than this from their camera are background; 'auto': auto_distance_factor x median point distance"
     )
     auto_distance_factor: float = Field(1.5, gt=0)
+
+    @field_validator("max_distance")
+    @classmethod
+    def _positive_distance(cls, v: Any) -> Any:
+        if isinstance(v, (int, float)) and not v > 0:
+            raise ValueError(f"must be > 0, 'auto' or null (got {v})")
+        return v
     max_overlap: float = Field(0.09, ge=0, le=1, description="drop masks with at least this fraction of background pixels (paper code: 9%)")
 
 
@@ -76,14 +84,14 @@ class PairConfig(_Model):
     mode: Literal["auto", "pose", "all"] = Field("auto", description="'pose': close camera poses only; 'all': every pair; 'auto': 'all' up to auto_max_views views, else 'pose'")
     auto_max_views: int = Field(8, ge=2)
     max_rotation: float = Field(1.2, gt=0, description="radians")
-    max_translation: float | None = Field(None, description="metres; None: translation_scale x scene scale")
+    max_translation: float | None = Field(None, gt=0, description="metres; None: translation_scale x scene scale")
     translation_scale: float = Field(1.0, gt=0)
 
 
 class PixelMatchConfig(_Model):
     """The ``pixel_match`` edge adder (2D stage)."""
 
-    tau: float | None = Field(None, description="absolute ratio threshold; None: percentile")
+    tau: float | None = Field(None, ge=0, description="absolute ratio threshold; None: percentile")
     percentile: float = Field(78.0, ge=0, le=100)
     normalization: Literal["area", "hits", "pair_hits"] = "area"
     min_matches: int = Field(3, ge=1, description="pairs sharing fewer matches get no edge and do not count toward the percentile (1 = the paper's rule)")
@@ -94,7 +102,7 @@ class Chamfer3DConfig(_Model):
     """The ``chamfer_3d`` edge adder (3D stage)."""
 
     tau: float = Field(5e-4, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
-    voxel_size: float | None = Field(0.005, description="metres; None = no downsampling")
+    voxel_size: float | None = Field(0.005, gt=0, description="metres; None = no downsampling")
     stride: int = Field(2, ge=1, description="pixel stride when gathering points")
     outliers: Literal["statistical", "dbscan"] | None = None
     prune: bool = True
@@ -110,7 +118,7 @@ class DinoConfig(_Model):
 class OutputConfig(_Model):
     """What the result keeps."""
 
-    voxel_size: float | None = Field(0.003, description="object clouds are voxel-downsampled to this size (metres)")
+    voxel_size: float | None = Field(0.003, gt=0, description="object clouds are voxel-downsampled to this size (metres)")
     stride: int = Field(2, ge=1, description="pixel stride when gathering the object clouds")
 
 
@@ -120,7 +128,7 @@ class BackendConfig(_Model):
     segmenter: str = "geometric"
     matcher: str = "reprojection"
     lifter: str = "rgbd"
-    num_matches: int | None = Field(10_000, description="matches kept per pair, most certain first")
+    num_matches: int | None = Field(10_000, ge=1, description="matches kept per pair, most certain first")
     options: dict[str, dict[str, Any]] = Field(default_factory=dict, description="constructor options by backend name")
 
 
@@ -153,7 +161,7 @@ class Config(_Model):
     backends: BackendConfig = Field(default_factory=BackendConfig)
     stages: list[list[str]] = Field(default_factory=lambda: [["pixel_match"], ["chamfer_3d"]])
     contractor: str = "star"
-    seed: int | None = 0
+    seed: int | None = Field(0, ge=0, description="random seed (None: fresh entropy)")
     adder_options: dict[str, dict[str, Any]] = Field(default_factory=dict)
 
     @field_validator("stages")
@@ -217,16 +225,93 @@ class Config(_Model):
             p.write_text(json.dumps(self.to_dict(), indent=2))
 
     @classmethod
-    def load(cls, path: str | PathLike[str]) -> Config:
-        """Read YAML or JSON written by :meth:`save` (partial files fill in defaults)."""
-        p = Path(path)
-        text = p.read_text()
-        if p.suffix.lower() in (".yaml", ".yml"):
-            import yaml
+    def load(cls, path: str | PathLike[str], *, base: Config | None = None) -> Config:
+        r"""Read YAML or JSON written by :meth:`save`.
 
-            data = yaml.safe_load(text) or {}
+        A partial file overrides ``base`` (default ``Config()``, the paper's
+        values): nested sections are merged key by key, lists are replaced.
+        YAML alias expansion is bounded (:func:`load_yaml_text`), and files
+        over 1 MiB are refused.
+
+        Raises
+        ------
+        ValueError
+            For malformed files (``yaml.YAMLError`` and ``json.JSONDecodeError``
+            are ValueErrors too); pydantic's ValidationError for bad values.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     p = Path(d) / "c.yaml"
+        ...     _ = p.write_text("seed: 3\n")
+        ...     Config.load(p, base=Config.preset("rgbd")).chamfer_3d.tau
+        5e-05
+        """
+        p = Path(path)
+        if p.stat().st_size > 2**20:
+            raise ValueError("larger than 1 MiB; not a config file")
+        text = p.read_text(encoding="utf-8")
+        if p.suffix.lower() in (".yaml", ".yml"):
+            data = load_yaml_text(text)
+            data = {} if data is None else data
         else:
             data = json.loads(text)
         if not isinstance(data, dict):
-            raise ValueError(f"{p}: expected a mapping at the top level")
+            raise ValueError("expected a mapping at the top level")
+        if base is not None:
+            data = _deep_merge(base.to_dict(), data)
         return cls.model_validate(data)
+
+
+def _deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def load_yaml_text(text: str, *, max_nodes: int = 100_000) -> Any:
+    r"""``yaml.safe_load`` with alias expansion bounded to ``max_nodes`` nodes.
+
+    The document is composed first (linear in the text); its size with every
+    alias expanded is counted (memoised, so a "billion laughs" file costs
+    O(distinct nodes)) and refused above ``max_nodes`` before any object is built.
+
+    Examples
+    --------
+    >>> load_yaml_text("a: &x [1, 2]\nb: *x")
+    {'a': [1, 2], 'b': [1, 2]}
+    >>> bomb = "a: &a [0,0,0,0,0,0,0,0,0]\n" + "".join(
+    ...     f"{chr(98 + i)}: &{chr(98 + i)} [*{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}, *{chr(97 + i)}]\n"
+    ...     for i in range(8))
+    >>> load_yaml_text(bomb)
+    Traceback (most recent call last):
+    ...
+    ValueError: YAML aliases expand to more than 100000 nodes
+    """
+    import yaml
+
+    node = yaml.compose(text, Loader=yaml.SafeLoader)
+    if node is None:
+        return None
+    sizes: dict[int, int] = {}
+
+    def size(n: Any, depth: int = 0) -> int:
+        if id(n) in sizes:
+            return sizes[id(n)]
+        if depth > 200:
+            raise ValueError("YAML nesting deeper than 200 levels")
+        sizes[id(n)] = 1  # guards against recursive aliases
+        total = 1
+        if isinstance(n, yaml.SequenceNode):
+            total += sum(size(c, depth + 1) for c in n.value)
+        elif isinstance(n, yaml.MappingNode):
+            total += sum(size(k, depth + 1) + size(v, depth + 1) for k, v in n.value)
+        if total > max_nodes:
+            raise ValueError(f"YAML aliases expand to more than {max_nodes} nodes")
+        sizes[id(n)] = total
+        return total
+
+    size(node)
+    return yaml.SafeLoader(text).get_single_data()

@@ -1,55 +1,347 @@
-"""The output folder of a run, written to a temporary sibling and renamed (never half an output).
+"""The output folder of a run, and the safety rules of every file graphseg writes.
 
 ::
 
     OUT/
+      .graphseg-output       marker (JSON: {"kind": "run", "version": 1}); see below
       labels/VIEW.png        uint16 object ids, consistent across views (0 = background)
       overlays/VIEW.png      RGB with coloured objects and their ids
-      objects/OBJ.ply        per-object points and colours (OBJ = 001, 002, ...)
-      graph_2d.graphml       the mask graph with its 2D edges
-      graph_3d.graphml       the super graph with its 3D edges (when the 3D stage ran)
+      objects/OBJ.ply        per-object points and colours (OBJ = 001, 002, ...; never empty)
+      graphs/stageS.graphml  one GraphML per stage S = 0, 1, ... (the graph with that stage's edges)
       result.npz             the native result file (Result.load)
       config.yaml            the configuration used
-      run.json               scene path, views, backends, timings
+      run.json               scene path, views (and their file names), backends, timings
       metrics.json           when the scene has ground truth
       report.html            overlays + interactive 3D view, works offline
+
+Safety rules (:func:`check_target`, :func:`atomic_folder`, :func:`atomic_file`):
+
+* graphseg writes only to a path that does not exist, or to an earlier graphseg
+  output of the same kind, recognised by its marker file ``.graphseg-output``
+  (``{"kind": "run" | "synth" | "demo" | "export", "version": 1}``). Anything
+  else is refused unless ``overwrite=True``.
+* Even with ``overwrite=True``, a target that is, contains or lies inside an
+  input of the command (or contains the working folder) is refused; so is a
+  symbolic link at the target path.
+* Folders are built in a temporary sibling ``.NAME.graphseg-tmp-PID-XXXX`` (with
+  the marker written first) and renamed into place; single files are written
+  inside such a marked sibling folder and moved with :func:`os.replace`. Stale
+  temporary siblings of dead processes that carry the marker are removed by
+  the next write to the same target.
+* Interrupted (SIGINT, or SIGTERM in the command line) or failed writes remove
+  their temporary sibling and any parent folders they created.
+* Created folders follow the umask.
+
+Examples
+--------
+>>> import tempfile, os
+>>> d = tempfile.mkdtemp()
+>>> with atomic_folder(os.path.join(d, "out"), "run") as tmp:
+...     _ = (tmp / "a.txt").write_text("hi")
+>>> sorted(os.listdir(os.path.join(d, "out")))
+['.graphseg-output', 'a.txt']
+>>> read_marker(os.path.join(d, "out"))["kind"]
+'run'
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import re
 import shutil
 import tempfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .graphs import write_graphml
-from .io.images import write_png
+from .io.images import unique_file_names, write_png
 from .io.ply import write_ply
 from .report import overlay, palette, render_report
 from .result import Result
-from .scene import Scene
+from .scene import Scene, SceneError
 
-__all__ = ["write_output", "read_output", "write_object_clouds", "RESULT_FILE"]
+__all__ = [
+    "write_output",
+    "read_output",
+    "write_object_clouds",
+    "fill_output",
+    "stage_graph_files",
+    "check_target",
+    "atomic_folder",
+    "atomic_file",
+    "read_marker",
+    "clean_stale",
+    "unique_file_names",
+    "MARKER",
+    "KINDS",
+    "RESULT_FILE",
+]
 
 RESULT_FILE = "result.npz"
+#: Name of the marker file inside every folder graphseg writes.
+MARKER = ".graphseg-output"
+#: Kinds of output folder.
+KINDS = ("run", "synth", "demo", "export", "batch")
+MARKER_VERSION = 1
+_TMP = ".graphseg-tmp-"
+_OLD = ".graphseg-old-"
 
 
-def _safe(name: str) -> str:
-    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "view"
+# ----------------------------------------------------------------------------- marker, targets
+def read_marker(path: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """The marker of a graphseg output folder, or None when ``path`` has no valid marker."""
+    p = Path(path) / MARKER
+    try:
+        if p.is_symlink() or not p.is_file() or p.stat().st_size > 4096:
+            return None
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(doc, dict) or doc.get("kind") not in KINDS:
+        return None
+    return doc
 
 
+def write_marker(folder: str | os.PathLike[str], kind: str) -> None:
+    """Mark ``folder`` as a graphseg output of ``kind`` (for folders filled incrementally, like a batch)."""
+    _write_marker(Path(folder), kind)
+
+
+def _write_marker(folder: Path, kind: str) -> None:
+    from . import __version__
+
+    (folder / MARKER).write_text(json.dumps({"kind": kind, "version": MARKER_VERSION, "graphseg": __version__}), encoding="utf-8")
+
+
+def _related(a: Path, b: Path) -> bool:
+    """Whether resolved paths ``a`` and ``b`` are equal or one lies inside the other."""
+    return a == b or a.is_relative_to(b) or b.is_relative_to(a)
+
+
+def check_target(
+    out: str | os.PathLike[str],
+    kind: str,
+    *,
+    inputs: Sequence[str | os.PathLike[str]] = (),
+    overwrite: bool = False,
+    folder: bool = True,
+) -> Path:
+    """Check that graphseg may write ``out``; return it as an absolute path.
+
+    Parameters
+    ----------
+    out : path-like
+        The folder (``folder=True``) or file to write.
+    kind : {"run", "synth", "demo", "export"}
+        An existing folder is replaced only if its marker names this kind (or
+        with ``overwrite``).
+    inputs : sequence of path-like
+        Files and folders the command reads: the target may not be, contain or
+        lie inside any of them, even with ``overwrite``.
+    overwrite : bool
+        Allow replacing an existing folder or file that is no graphseg output.
+    folder : bool
+        Whether the target is a folder (else a single file).
+
+    Raises
+    ------
+    SceneError
+        ``OUT: output: ...`` naming what is wrong; nothing has been touched.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> check_target(os.path.join(d, "new"), "run").name
+    'new'
+    >>> check_target(d, "run")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    graphseg.scene.SceneError: ...: output: exists and is not a graphseg run output (pass --overwrite to replace it)
+    """
+    where = str(out)
+    p = Path(os.path.abspath(out))
+    if p.is_symlink():
+        raise SceneError("is a symbolic link; refusing to write through it", where=where, field="output")
+    real = p.resolve()
+    if real.parent == real or real == Path.home().resolve():
+        raise SceneError("refusing to write to the root or home folder", where=where, field="output")
+    if Path.cwd().resolve().is_relative_to(real):
+        raise SceneError("is or contains the working folder", where=where, field="output")
+    for inp in inputs:
+        ip = Path(os.path.abspath(inp))
+        if _related(real, ip.resolve()) or _related(p, ip):
+            raise SceneError(f"is, contains or lies inside an input of this command ({inp})", where=where, field="output")
+    probe = real.parent
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise SceneError(f"the parent path {probe} is not a folder", where=where, field="output")
+    if p.exists():
+        if folder:
+            if not p.is_dir():
+                raise SceneError("exists and is not a folder", where=where, field="output")
+            marker = read_marker(p)
+            if not overwrite and (marker is None or marker.get("kind") != kind):
+                what = f"a graphseg {marker['kind']} output, not {kind}" if marker else f"not a graphseg {kind} output"
+                raise SceneError(f"exists and is {what} (pass --overwrite to replace it)", where=where, field="output")
+        else:
+            if p.is_dir():
+                raise SceneError("exists and is a folder", where=where, field="output")
+            if not overwrite:
+                raise SceneError("exists (pass --overwrite to replace it)", where=where, field="output")
+    return p
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def clean_stale(out: str | os.PathLike[str]) -> list[Path]:
+    """Remove temporary siblings of ``out`` left by killed graphseg runs; return them.
+
+    Only folders named ``.NAME.graphseg-tmp-PID-*`` or ``.NAME.graphseg-old-PID-*``
+    that hold a graphseg marker and whose process ``PID`` is gone are removed.
+    """
+    p = Path(os.path.abspath(out))
+    if not p.parent.is_dir():
+        return []
+    pat = re.compile(re.escape(f".{p.name}") + r"\.graphseg-(?:tmp|old)-(\d+)-[A-Za-z0-9_]+$")
+    removed = []
+    for q in p.parent.iterdir():
+        m = pat.match(q.name)
+        if not m or q.is_symlink() or not q.is_dir() or read_marker(q) is None or _pid_alive(int(m.group(1))):
+            continue
+        shutil.rmtree(q, ignore_errors=True)
+        removed.append(q)
+    return removed
+
+
+def _make_parents(path: Path) -> list[Path]:
+    """Create the missing parents of ``path``; return those created, deepest first."""
+    created = []
+    probe = path.parent
+    while not probe.exists():
+        created.append(probe)
+        probe = probe.parent
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return created
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    for f in folders:
+        try:
+            f.rmdir()
+        except OSError:
+            break
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+@contextlib.contextmanager
+def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
+    """Build a folder in a temporary sibling and rename it to ``out`` on success.
+
+    The caller has checked ``out`` with :func:`check_target`. The temporary
+    folder holds the marker from the start; an existing ``out`` is replaced
+    only after the new folder is complete. On any exception (including
+    KeyboardInterrupt) the temporary folder and any parent folders it created
+    are removed, and ``out`` is unchanged.
+    """
+    dest = Path(os.path.abspath(out))
+    created = _make_parents(dest)
+    clean_stale(dest)
+    ok = False
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
+    except BaseException:
+        _remove_empty(created)
+        raise
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())
+        _write_marker(tmp, kind)
+        yield tmp
+        if dest.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_OLD}{os.getpid()}-", dir=dest.parent))
+            _write_marker(old, kind)
+            os.replace(dest, old / "x")
+            os.replace(tmp, dest)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, dest)
+        ok = True
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+        if not ok:
+            _remove_empty(created)
+
+
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a temporary path to write; it replaces ``path`` on success, else is removed.
+
+    The temporary file lives in a marked sibling folder
+    ``.NAME.graphseg-tmp-PID-XXXX/`` so that :func:`clean_stale` can remove it
+    after a killed run, like the folders of :func:`atomic_folder`.
+    """
+    dest = Path(os.path.abspath(path))
+    created = _make_parents(dest)
+    clean_stale(dest)
+    ok = False
+    try:
+        box = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
+    except BaseException:
+        _remove_empty(created)
+        raise
+    try:
+        _write_marker(box, "export")
+        tmp = box / dest.name
+        yield tmp
+        if tmp.exists():
+            os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, dest)
+        ok = True
+    finally:
+        shutil.rmtree(box, ignore_errors=True)
+        if not ok:
+            _remove_empty(created)
+
+
+# ----------------------------------------------------------------------------- writing
 def write_object_clouds(result: Result, folder: str | os.PathLike[str]) -> int:
-    """Write one PLY per object (``001.ply``, ...) into ``folder``; returns how many."""
+    """Write one PLY per object with points (``001.ply``, ...) into ``folder``; returns how many.
+
+    Objects without any point (possible with a large ``output.stride``) get no
+    file, so every PLY written has at least one vertex.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
+    n = 0
     for k in range(1, result.num_objects + 1):
         pts, cols = result.object_cloud(k)
+        if len(pts) == 0:
+            continue
         write_ply(folder / f"{k:03d}.ply", pts, cols)
-    return result.num_objects
+        n += 1
+    return n
 
 
 def write_output(
@@ -59,79 +351,120 @@ def write_output(
     *,
     metrics: dict[str, Any] | None = None,
     run_info: dict[str, Any] | None = None,
+    inputs: Sequence[str | os.PathLike[str]] = (),
+    overwrite: bool = False,
+    kind: str = "run",
 ) -> Path:
-    """Write every output file for ``result`` into ``out`` (replacing an existing folder).
+    """Write every output file for ``result`` into ``out`` (see the module docstring).
+
+    ``out`` must be new or an earlier graphseg output of ``kind`` (or
+    ``overwrite``); see :func:`check_target` for ``inputs``.
 
     Raises
     ------
+    SceneError
+        When the target is refused.
     PermissionError, OSError
         When the parent folder cannot be written; nothing is left behind.
     """
-    dest = Path(out).resolve()
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.tmp-", dir=dest.parent))
-    try:
-        colors = palette(result.num_objects)
-        (tmp / "labels").mkdir()
-        (tmp / "overlays").mkdir()
-        overlays = []
-        for v, (view, lab) in enumerate(zip(scene.views, result.labels)):
-            name = _safe(result.view_names[v])
-            write_png(tmp / "labels" / f"{name}.png", lab.astype(np.uint16))
-            ov = overlay(view.rgb, lab, colors)
-            write_png(tmp / "overlays" / f"{name}.png", ov)
-            overlays.append(ov)
-        write_object_clouds(result, tmp / "objects")
-        write_graphml(result.graph_2d, tmp / "graph_2d.graphml")
-        if result.graph_3d is not None:
-            write_graphml(result.graph_3d, tmp / "graph_3d.graphml")
-        result.save(tmp / RESULT_FILE)
-        result.config.save(tmp / "config.yaml")
-        info = dict(run_info or {})
-        info.setdefault("views", result.view_names)
-        info.setdefault("num_objects", result.num_objects)
-        info.setdefault("pipeline", result.info.get("pipeline"))
-        (tmp / "run.json").write_text(json.dumps(info, indent=2, default=str))
-        if metrics is not None:
-            (tmp / "metrics.json").write_text(json.dumps(metrics, indent=2))
-        summary = {
-            "scene": info.get("scene", scene.name),
-            "views": len(result.view_names),
-            "objects": result.num_objects,
-            "stages": " -> ".join("+".join(s) for s in result.config.stages),
-        }
-        if result.info.get("pipeline"):
-            p = result.info["pipeline"]
-            summary["backends"] = f"segmenter={p.get('segmenter')}, matcher={p.get('matcher')}, lifter={p.get('lifter')}"
-        page = render_report(
-            title=f"graphseg: {scene.name}",
-            view_names=result.view_names,
-            overlays=overlays,
-            points=result.object_points.points,
-            point_colors=colors[result.object_points.node_of_point() + 1],
-            metrics=metrics,
-            summary=summary,
-        )
-        (tmp / "report.html").write_text(page)
-        if dest.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{dest.name}.old-", dir=dest.parent))
-            os.replace(dest, old / "x")
-            os.replace(tmp, dest)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, dest)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+    dest = check_target(out, kind, inputs=inputs, overwrite=overwrite)
+    with atomic_folder(dest, kind) as tmp:
+        fill_output(tmp, result, scene, metrics=metrics, run_info=run_info)
     return dest
 
 
-def read_output(out: str | os.PathLike[str]) -> tuple[Result, dict[str, Any]]:
-    """The :class:`Result` and ``run.json`` of an output folder."""
-    from .scene import SceneError
+def fill_output(
+    tmp: Path,
+    result: Result,
+    scene: Scene,
+    *,
+    metrics: dict[str, Any] | None = None,
+    run_info: dict[str, Any] | None = None,
+) -> None:
+    """Write the files of an output folder into the existing, empty folder ``tmp`` (no marker, no checks)."""
+    colors = palette(result.num_objects)
+    (tmp / "labels").mkdir()
+    (tmp / "overlays").mkdir()
+    (tmp / "graphs").mkdir()
+    overlays = []
+    files = unique_file_names(result.view_names)
+    for v, (view, lab) in enumerate(zip(scene.views, result.labels)):
+        write_png(tmp / "labels" / f"{files[v]}.png", lab.astype(np.uint16))
+        ov = overlay(view.rgb, lab, colors)
+        write_png(tmp / "overlays" / f"{files[v]}.png", ov)
+        overlays.append(ov)
+    write_object_clouds(result, tmp / "objects")
+    for s, g in enumerate(result.graphs):
+        write_graphml(g, tmp / "graphs" / f"stage{s}.graphml")
+    result.save(tmp / RESULT_FILE)
+    result.config.save(tmp / "config.yaml")
+    info = dict(run_info or {})
+    info.setdefault("views", result.view_names)
+    info["view_files"] = files
+    info.setdefault("num_objects", result.num_objects)
+    info["num_stages"] = len(result.graphs)
+    info.setdefault("pipeline", result.info.get("pipeline"))
+    if result.info.get("warnings"):
+        info["warnings"] = result.info["warnings"]
+    _write_json(tmp / "run.json", info)
+    if metrics is not None:
+        _write_json(tmp / "metrics.json", metrics)
+    summary = {
+        "scene": info.get("scene", scene.name),
+        "views": len(result.view_names),
+        "objects": result.num_objects,
+        "stages": " -> ".join("+".join(str(a) for a in s) for s in result.config.stages),
+    }
+    if result.info.get("pipeline"):
+        p = result.info["pipeline"]
+        summary["backends"] = f"segmenter={p.get('segmenter')}, matcher={p.get('matcher')}, lifter={p.get('lifter')}"
+    for w in result.info.get("warnings", []):
+        summary["warning"] = w
+    page = render_report(
+        title=f"graphseg: {scene.name}",
+        view_names=result.view_names,
+        overlays=overlays,
+        points=result.object_points.points,
+        point_colors=colors[result.object_points.node_of_point() + 1],
+        metrics=metrics,
+        summary=summary,
+    )
+    (tmp / "report.html").write_text(page, encoding="utf-8", errors="replace")
 
+
+def _write_json(path: Path, doc: Any) -> None:
+    path.write_text(json.dumps(doc, indent=2, default=str, ensure_ascii=True), encoding="utf-8")
+
+
+def stage_graph_files(out: str | os.PathLike[str]) -> list[Path]:
+    """The per-stage GraphML files of an output folder, in stage order (old layouts too)."""
+    root = Path(out)
+    new = sorted((root / "graphs").glob("stage*.graphml"), key=lambda p: int(re.sub(r"\D", "", p.stem) or 0))
+    if new:
+        return new
+    return [p for p in (root / "graph_2d.graphml", root / "graph_3d.graphml") if p.is_file()]
+
+
+def read_output(out: str | os.PathLike[str]) -> tuple[Result, dict[str, Any]]:
+    """The :class:`Result` and ``run.json`` of an output folder.
+
+    Raises
+    ------
+    SceneError
+        When ``out`` is no graphseg output folder or a file in it is malformed.
+    """
     root = Path(out)
     if not (root / RESULT_FILE).is_file():
         raise SceneError(f"not a graphseg output folder (no {RESULT_FILE})", where=str(root), field="path")
-    info = json.loads((root / "run.json").read_text()) if (root / "run.json").exists() else {}
+    info: dict[str, Any] = {}
+    rj = root / "run.json"
+    if rj.exists():
+        try:
+            if rj.stat().st_size > 64 * 2**20:
+                raise ValueError("larger than 64 MiB")
+            info = json.loads(rj.read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError) as err:
+            raise SceneError(f"invalid JSON ({str(err).splitlines()[0]})", where=str(rj), field="run.json") from err
+        if not isinstance(info, dict):
+            raise SceneError("expected a JSON object", where=str(rj), field="run.json")
     return Result.load(root / RESULT_FILE), info

@@ -131,24 +131,98 @@ class Result:
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Result:
-        """Read a file written by :meth:`save`."""
-        f = load_native(path)
-        if f.meta.get("kind") != "graphseg-result":
-            raise ValueError(f"{path}: not a graphseg result file")
-        n_views = len(f.meta["view_names"])
-        a = f.arrays
-        bg = [a[f"background_{v}"].astype(bool) for v in range(n_views)] if "background_0" in a else None
+        """Read a file written by :meth:`save`.
+
+        Declared array sizes are checked against the file size and a cap before
+        anything is allocated; a corrupt or tampered file raises one
+        :class:`~graphseg.scene.SceneError` naming the file and the field.
+        """
+        from .graphs import GraphValidationError
+        from .scene import SceneError
+
+        where = str(path)
+        try:
+            f = load_native(path)
+        except GraphValidationError as err:
+            msg = str(err)
+            prefix = f"{path}: "
+            msg = msg[len(prefix):] if msg.startswith(prefix) else msg
+            field, _, rest = msg.partition(": ")
+            raise SceneError(rest or msg, where=where, field=field if rest else "file") from err
+        field = "meta"
+        try:
+            if f.meta.get("kind") != "graphseg-result":
+                raise SceneError("not a graphseg result file", where=where, field="kind")
+            field = "view_names"
+            names = f.meta["view_names"]
+            if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+                raise SceneError("expected a list of strings", where=where, field=field)
+            n_views = len(names)
+            a = f.arrays
+            for field in ("mask_view", "mask_id", "mask_object", "object_points", "object_ptr"):
+                if field not in a:
+                    raise SceneError("missing", where=where, field=field)
+            m = a["mask_view"].shape
+            for field in ("mask_id", "mask_object"):
+                if a[field].shape != m or a[field].ndim != 1 or a[field].dtype.kind not in "iu":
+                    raise SceneError(f"expected int [{m[0] if m else '?'}] like mask_view (got {a[field].dtype} {list(a[field].shape)})", where=where, field=field)
+            field = "object_points"
+            pts, ptr = a["object_points"], a["object_ptr"]
+            if pts.ndim != 2 or pts.shape[1:] != (3,) or pts.dtype.kind != "f":
+                raise SceneError(f"expected float [P, 3] (got {pts.dtype} {list(pts.shape)})", where=where, field=field)
+            field = "object_ptr"
+            if ptr.ndim != 1 or ptr.size < 1 or ptr.dtype.kind not in "iu" or ptr[0] != 0 or ptr[-1] != len(pts) or (np.diff(ptr) < 0).any():
+                raise SceneError(f"expected a non-decreasing int [K + 1] from 0 to {len(pts)}", where=where, field=field)
+            cols = a.get("object_colors")
+            if cols is not None and (cols.shape != pts.shape or cols.dtype != np.uint8):
+                raise SceneError(f"expected uint8 {list(pts.shape)} (got {cols.dtype} {list(cols.shape)})", where=where, field="object_colors")
+            labels = []
+            for v in range(n_views):
+                field = f"labels_{v}"
+                lab = a[field]
+                if lab.ndim != 2 or lab.dtype.kind not in "iu":
+                    raise SceneError(f"expected an int label image [H, W] (got {lab.dtype} {list(lab.shape)})", where=where, field=field)
+                if lab.size and int(lab.max()) > ptr.size - 1:
+                    raise SceneError(f"object id {int(lab.max())} > number of objects {ptr.size - 1}", where=where, field=field)
+                labels.append(lab.astype(np.int32))
+            bg = None
+            if "background_0" in a:
+                bg = []
+                for v in range(n_views):
+                    field = f"background_{v}"
+                    if a[field].shape != labels[v].shape:
+                        raise SceneError(f"expected {list(labels[v].shape)} like labels_{v} (got {list(a[field].shape)})", where=where, field=field)
+                    bg.append(a[field].astype(bool))
+            field = "num_stages"
+            num_stages = f.meta["num_stages"]
+            if not isinstance(num_stages, int) or not 1 <= num_stages <= len(f.graphs):
+                raise SceneError(f"expected 1..{len(f.graphs)} (got {num_stages!r})", where=where, field=field)
+            graphs = []
+            for s in range(num_stages):
+                field = f"stage{s}"
+                graphs.append(f.graphs[field])
+            field = "config"
+            config = Config.model_validate(f.meta["config"])
+            field = "info"
+            info = f.meta.get("info", {})
+            if not isinstance(info, dict):
+                raise SceneError("expected an object", where=where, field=field)
+        except SceneError:
+            raise
+        except (KeyError, ValueError, TypeError, IndexError) as err:
+            text = str(err).splitlines()[0] if str(err) else type(err).__name__
+            raise SceneError(f"corrupt or tampered result file ({type(err).__name__}: {text})", where=where, field=field) from err
         return cls(
-            labels=[a[f"labels_{v}"].astype(np.int32) for v in range(n_views)],
-            mask_view=a["mask_view"],
-            mask_id=a["mask_id"],
-            mask_object=a["mask_object"],
-            object_points=PointSets(a["object_points"].astype(np.float64), a["object_ptr"], a.get("object_colors")),
-            graphs=[f.graphs[f"stage{s}"] for s in range(f.meta["num_stages"])],
-            config=Config.model_validate(f.meta["config"]),
-            view_names=list(f.meta["view_names"]),
+            labels=labels,
+            mask_view=a["mask_view"].astype(np.int64),
+            mask_id=a["mask_id"].astype(np.int64),
+            mask_object=a["mask_object"].astype(np.int64),
+            object_points=PointSets(pts.astype(np.float64), ptr.astype(np.int64), cols),
+            graphs=graphs,
+            config=config,
+            view_names=list(names),
             background=bg,
-            info=f.meta.get("info", {}),
+            info=info,
         )
 
 

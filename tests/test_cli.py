@@ -33,7 +33,7 @@ def test_run_eval_export_info(scene_dir, tmp_path, capsys):
     out = tmp_path / "out"
     code, stdout, _ = run_cli(["run", scene_dir, "-o", out, "--quiet"], capsys)
     assert code == 0 and "2 objects" in stdout and "report:" in stdout
-    for name in ("labels/000.png", "overlays/000.png", "objects/001.ply", "graph_2d.graphml", "graph_3d.graphml", "result.npz", "config.yaml", "metrics.json", "report.html", "run.json"):
+    for name in ("labels/000.png", "overlays/000.png", "objects/001.ply", "graphs/stage0.graphml", "graphs/stage1.graphml", "result.npz", ".graphseg-output", "config.yaml", "metrics.json", "report.html", "run.json"):
         assert (out / name).exists(), name
     html = (out / "report.html").read_text()
     assert "http://" not in html and "https://" not in html  # works offline
@@ -44,8 +44,17 @@ def test_run_eval_export_info(scene_dir, tmp_path, capsys):
     m = json.loads((tmp_path / "m.json").read_text())
     assert m["mean"]["iou"] == pytest.approx(metrics["mean"]["iou"])
     code, stdout, _ = run_cli(["export", out, "--graphml", tmp_path / "g.graphml", "--ply", tmp_path / "ply", "--pyg", tmp_path / "g.pt"], capsys)
-    assert code == 0 and (tmp_path / "g.graphml").exists() and (tmp_path / "g_3d.graphml").exists() and (tmp_path / "g.pt").exists()
+    assert code == 0 and (tmp_path / "g.graphml").exists() and (tmp_path / "g_stage1.graphml").exists() and (tmp_path / "g.pt").exists()
     assert len(list((tmp_path / "ply").glob("*.ply"))) == 2
+    torch = pytest.importorskip("torch")
+    data = torch.load(tmp_path / "g.pt")  # plain torch.load (weights_only) works
+    assert data["edge_index"].shape[0] == 2
+    code, _, err = run_cli(["export", out, "--graphml", tmp_path / "g.graphml"], capsys)
+    assert code == 2 and "--overwrite" in err  # never replaces a file it did not create without --overwrite
+    code, _, _ = run_cli(["export", out, "--graphml", tmp_path / "g1.graphml", "--stage", "1"], capsys)
+    assert code == 0 and (tmp_path / "g1.graphml").exists() and not (tmp_path / "g1_stage1.graphml").exists()
+    code, _, _ = run_cli(["run", scene_dir, "-o", out, "--quiet"], capsys)
+    assert code == 0  # an earlier run output is replaced
     code, stdout, _ = run_cli(["info", out], capsys)
     assert code == 0 and "objects: 2" in stdout
     code, stdout, _ = run_cli(["info", scene_dir], capsys)
@@ -60,7 +69,7 @@ def test_run_options(scene_dir, tmp_path, capsys):
     info = json.loads((tmp_path / "o" / "run.json").read_text())
     assert info["views"] == ["000", "002"]
     assert "chamfer_3d" not in (tmp_path / "o" / "config.yaml").read_text().split("stages:")[1]
-    assert not (tmp_path / "o" / "graph_3d.graphml").exists()
+    assert not (tmp_path / "o" / "graphs" / "stage1.graphml").exists()
 
 
 def test_synth(tmp_path, capsys):
@@ -176,7 +185,9 @@ def test_internal_error_exit_1(monkeypatch, scene_dir, tmp_path, capsys):
 
     monkeypatch.setattr(pl, "run", boom)
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet"], capsys)
-    assert code == 1 and "internal error" in err and not (tmp_path / "o").exists()
+    assert code == 1 and "internal error" in err and "--debug" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+    code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet", "--debug"], capsys)
+    assert code == 1 and "Traceback" in err
 
 
 def test_demo_small(tmp_path, capsys, monkeypatch):
@@ -201,3 +212,180 @@ def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
     (tmp_path / "masks" / "001.png").unlink()
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o3", "--masks", tmp_path / "masks", "--quiet"], capsys)
     assert code == 2 and "no masks for view '001'" in err and not (tmp_path / "o3").exists()
+
+
+# ------------------------------------------------------------------ degenerate input: a result, not a crash
+@pytest.fixture(scope="module")
+def small_scene(tmp_path_factory):
+    d = tmp_path_factory.mktemp("small") / "scene"
+    write_scene_folder(box_scene(TWO_BOXES, views=3, shape=(48, 64)), d)
+    return d
+
+
+def degenerate_empty_table(d, tmp):
+    for f in (d / "depth").glob("*.png"):
+        write_png(f, np.zeros((48, 64), np.uint16))
+    return []
+
+
+def degenerate_zero_masks(d, tmp):
+    m = tmp / "m"
+    m.mkdir()
+    for n in ("000", "001", "002"):
+        write_png(m / f"{n}.png", np.zeros((48, 64), np.uint16))
+    return ["--masks", m]
+
+
+def degenerate_huge_min_area(d, tmp):
+    (tmp / "c.yaml").write_text("masks:\n  min_area: 1000000\n")
+    return ["--config", tmp / "c.yaml"]
+
+
+@pytest.mark.parametrize("case", [degenerate_empty_table, degenerate_zero_masks, degenerate_huge_min_area], ids=lambda c: c.__name__)
+def test_degenerate_input_gives_an_empty_result(case, small_scene, tmp_path, capsys):
+    d = fresh(small_scene, tmp_path)
+    extra = case(d, tmp_path)
+    code, stdout, err = run_cli(["run", d, "-o", tmp_path / "o", "--quiet", *extra], capsys)
+    assert code == 0 and "0 objects" in stdout, err
+    assert err.strip().splitlines() == ["graphseg: warning: no usable masks (every mask was empty, background, or below masks.min_area): 0 objects"]
+    assert (tmp_path / "o" / "report.html").exists() and not list((tmp_path / "o" / "objects").glob("*.ply"))
+    code, stdout, _ = run_cli(["info", tmp_path / "o"], capsys)
+    assert code == 0 and "objects: 0" in stdout
+    code, _, _ = run_cli(["export", tmp_path / "o", "--graphml", tmp_path / "g.graphml", "--ply", tmp_path / "ply"], capsys)
+    assert code == 0
+
+
+def test_one_view_warns(small_scene, tmp_path, capsys):
+    code, stdout, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--views", "1", "--quiet"], capsys)
+    assert code == 0 and "2 objects in 1 views" in stdout
+    assert err.strip().splitlines() == ["graphseg: warning: only one view: no cross-view evidence, every mask is its own object"]
+
+
+# ------------------------------------------------------------------ least surprise
+def test_views_match_names_before_indices(small_scene, tmp_path, capsys):
+    d = fresh(small_scene, tmp_path)
+    doc = json.loads((d / "scene.json").read_text())
+    for v, name in zip(doc["views"], ["2", "0", "1"]):
+        v["name"] = name
+    (d / "scene.json").write_text(json.dumps(doc))
+    code, _, err = run_cli(["run", d, "-o", tmp_path / "o", "--views", "0,1", "--quiet"], capsys)
+    assert code == 0, err
+    assert json.loads((tmp_path / "o" / "run.json").read_text())["views"] == ["0", "1"]  # names, not indices 0 and 1
+
+
+def test_partial_config_overrides_the_preset_in_use(small_scene, tmp_path, capsys):
+    from graphseg.config import Config
+
+    (tmp_path / "c.yaml").write_text("seed: 5\n")
+    code, _, _ = run_cli(["run", small_scene, "-o", tmp_path / "o", "--config", tmp_path / "c.yaml", "--quiet"], capsys)
+    assert code == 0
+    used = Config.load(tmp_path / "o" / "config.yaml")
+    assert used == Config.preset("rgbd", seed=5)
+
+
+def test_backend_option_flag(small_scene, tmp_path, capsys):
+    from graphseg.cli import parse_backend_option
+
+    assert parse_backend_option("oracle-parts.parts=3") == ("oracle-parts", "parts", 3)
+    assert parse_backend_option("x.flag=true") == ("x", "flag", True)
+    assert parse_backend_option("x.list=[1, 2]") == ("x", "list", [1, 2])
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--segmenter", "oracle-parts", "--backend-option", "oracle-parts.parts=1", "--quiet"], capsys)
+    assert code == 0, err
+    import yaml
+
+    cfg = yaml.safe_load((tmp_path / "o" / "config.yaml").read_text())
+    assert cfg["backends"]["options"]["oracle-parts"]["parts"] == 1
+
+
+def test_eval_against_a_scene_checks_view_names(small_scene, tmp_path, capsys):
+    code, _, _ = run_cli(["run", small_scene, "-o", tmp_path / "o", "--views", "0,1", "--quiet"], capsys)
+    assert code == 0
+    code, stdout, _ = run_cli(["eval", tmp_path / "o", "--scene", small_scene], capsys)
+    assert code == 0 and "mean" in stdout  # the matching views are picked by name
+
+
+# ------------------------------------------------------------------ interruption
+SLOW_RUN = """
+import sys, time
+import graphseg.output as o
+real = o.fill_output
+def slow(*a, **k):
+    real(*a, **k)
+    print("ready", flush=True)
+    time.sleep(60)
+o.fill_output = slow
+from graphseg.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("sig,code", [("SIGTERM", 143), ("SIGINT", 130)])
+def test_signal_leaves_nothing_behind(sig, code, small_scene, tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(repo)}
+    p = subprocess.Popen([sys.executable, "-c", SLOW_RUN, "run", str(small_scene), "-o", str(tmp_path / "out"), "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+    assert p.stdout.readline().strip() == "ready"
+    assert [q.name for q in tmp_path.iterdir() if ".graphseg-tmp-" in q.name]  # mid-write
+    p.send_signal(getattr(signal, sig))
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == code
+    assert err.strip().splitlines() == ["graphseg: interrupted; nothing written"]
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------ run never modifies its inputs
+def _tree(root):
+    import hashlib
+    import os
+    from pathlib import Path
+
+    out = {}
+    for dirpath, _, files in os.walk(root):
+        for f in files:
+            p = Path(dirpath) / f
+            out[str(p.relative_to(root))] = (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mode)
+    return out
+
+
+def test_run_never_modifies_its_inputs(small_scene, tmp_path_factory):
+    import contextlib
+    import io
+
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from graphseg.backends.segmenters import save_precomputed
+    from graphseg.cli import main as cli_main
+
+    template = tmp_path_factory.mktemp("prop-template")
+    shutil.copytree(small_scene, template / "scene")
+    for v in read_scene_folder(small_scene).views:
+        save_precomputed(template / "masks", v.name, v.instances.astype(np.int32))
+    (template / "c.yaml").write_text("seed: 1\n")
+    targets = st.sampled_from(["scene", "scene/x", "scene/rgb", "masks", "masks/y", ".", "c.yaml", "new", "new/deeper"])
+
+    @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(target=targets, overwrite=st.booleans(), use_masks=st.booleans(), use_config=st.booleans(), views=st.sampled_from([None, "0,2", "001"]))
+    def prop(target, overwrite, use_masks, use_config, views):
+        base = tmp_path_factory.mktemp("prop")
+        shutil.rmtree(base)
+        shutil.copytree(template, base)
+        argv = ["run", str(base / "scene"), "-o", str(base / target), "--quiet"]
+        argv += ["--overwrite"] * overwrite + ["--masks", str(base / "masks")] * use_masks + ["--config", str(base / "c.yaml")] * use_config
+        argv += ["--views", views] if views else []
+        inputs = ["scene"] + ["masks"] * use_masks + ["c.yaml"] * use_config
+        before = {k: v for k, v in _tree(base).items() if k.split("/")[0] in inputs}
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            code = cli_main(argv)
+        assert code in (0, 2)
+        after = {k: v for k, v in _tree(base).items() if k.split("/")[0] in inputs}
+        assert after == before  # no file under an input of the command changed, appeared or vanished
+        shutil.rmtree(base)
+
+    prop()

@@ -340,20 +340,31 @@ def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.n
 
 def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[np.ndarray]:
     """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image)."""
-    import cv2
 
     folder = Path(folder)
     npz, png = folder / f"{name}.npz", folder / f"{name}.png"
     if npz.exists():
-        with np.load(npz) as z:
-            if "masks" not in z.files:
-                raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
-            return list(z["masks"].astype(bool))
+        from ..graphs import GraphValidationError
+        from ..graphs.native import check_npz_sizes
+
+        try:
+            check_npz_sizes(npz)
+            with np.load(npz, allow_pickle=False) as z:
+                if "masks" not in z.files:
+                    raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
+                arr = z["masks"]
+        except (GraphValidationError, ValueError, OSError, EOFError) as err:
+            if isinstance(err, SceneError):
+                raise
+            text = (str(err) or type(err).__name__).splitlines()[0].replace(f"{npz}: ", "")
+            raise SceneError(f"cannot read .npz ({text})", where=str(npz), field="masks") from err
+        if arr.ndim != 3 or arr.dtype.kind not in "biu":
+            raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
+        return list(arr.astype(bool))
     if png.exists():
-        lab = cv2.imread(str(png), cv2.IMREAD_UNCHANGED)
-        if lab is None or lab.ndim != 2:
-            raise SceneError("expected a single-channel label PNG", where=str(png), field="masks")
-        return lab.astype(np.int32)
+        from ..io.images import read_label
+
+        return read_label(png, field="masks")  # pixel budget, clean errors, no OpenCV log lines
     raise SceneError(f"no masks for view {name!r} ({npz.name} or {png.name})", where=str(folder), field="masks")
 
 

@@ -3,7 +3,8 @@
 ::
 
     OUT/
-      batch.json                         marker + state of the last run (tasks, failures)
+      .graphseg-output                   marker: a graphseg output of kind "batch"
+      batch.json                         state of the last run (tasks, failures)
       aggregate.{md,csv,json}            the paper's Table I layout per split / method / views
       sparse_views.png                   mean IoU against the number of views
       runs/SCENE/METHOD/views-N/         one complete graphseg output folder per task
@@ -41,7 +42,7 @@ from ..scene import SceneError
 from .aggregate import aggregate, plot_sparse_views, to_markdown, write_aggregate
 from .executors import LocalExecutor, RayExecutor
 from .tasks import Task, configurations, expand_scenes, make_tasks
-from .worker import run_task
+from .worker import run_task, stage_timings
 
 __all__ = [
     "run_batch",
@@ -57,11 +58,11 @@ __all__ = [
     "expand_scenes",
     "configurations",
     "make_tasks",
-    "MARKER",
+    "STATE",
 ]
 
-#: The file that marks a folder as a graphseg batch output (and holds its state).
-MARKER = "batch.json"
+#: The file that holds the state of a batch folder (marked as kind ``batch`` by ``.graphseg-output``).
+STATE = "batch.json"
 
 
 @dataclass
@@ -82,14 +83,17 @@ class BatchSummary:
         return 3 if self.failed else 0
 
 
-def _check_out(out: Path) -> None:
-    if out.is_symlink():
-        raise SceneError("is a symlink; give a real folder", where=str(out), field="output")
+def _check_out(out: Path, inputs: Sequence[str]) -> None:
+    """A batch writes into a new folder or an earlier batch output, never into or around its inputs."""
+    from ..output import check_target, read_marker
+
+    check_target(out, "batch", inputs=inputs, overwrite=True)  # symlinks, inputs, root/home
     if out.exists():
         if not out.is_dir():
             raise SceneError("exists and is not a folder", where=str(out), field="output")
-        if any(out.iterdir()) and not (out / MARKER).is_file():
-            raise SceneError(f"exists, is not empty and is not a graphseg batch output (no {MARKER}); choose a new folder", where=str(out), field="output")
+        marker = read_marker(out)
+        if any(out.iterdir()) and (marker is None or marker.get("kind") != "batch"):
+            raise SceneError("exists, is not empty and is not a graphseg batch output; choose a new folder", where=str(out), field="output")
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
@@ -108,7 +112,6 @@ def record_from_output(folder: str | os.PathLike[str]) -> dict[str, Any] | None:
         return None
     b = info["batch"]
     metrics = _read_json(root / "metrics.json")
-    timings = (info.get("pipeline") or {}).get("timings") or {}
     rec = {k: b.get(k) for k in ("key", "scene_label", "split", "method", "label", "num_views")}
     rec.update(
         scene=info.get("scene"),
@@ -117,7 +120,7 @@ def record_from_output(folder: str | os.PathLike[str]) -> dict[str, Any] | None:
         error=None,
         num_objects=info.get("num_objects"),
         metrics=(metrics or {}).get("mean"),
-        timings={**{k: float(v) for k, v in timings.items()}, **({"lift": float(b["lift"])} if "lift" in b else {})},
+        timings=stage_timings(info, info.get("timings")),
     )
     return rec
 
@@ -134,9 +137,9 @@ def _write_state(out: Path, records: Sequence[dict[str, Any]], extra: dict[str, 
         **extra,
         "failed": [{k: r.get(k) for k in ("key", "scene", "label", "split", "method", "num_views", "error")} for r in records if r.get("status") != "ok"],
     }
-    tmp = out / f".{MARKER}.tmp-{os.getpid()}"
+    tmp = out / f".{STATE}.tmp-{os.getpid()}"
     tmp.write_text(json.dumps(state, indent=2, default=str), encoding="utf-8")
-    os.replace(tmp, out / MARKER)
+    os.replace(tmp, out / STATE)
 
 
 def run_batch(
@@ -187,9 +190,9 @@ def run_batch(
     """
     t0 = time.perf_counter()
     root = Path(out)
-    _check_out(root)
     specs = expand_scenes(scenes, split=split, videos=videos)
     configs = configurations(methods, config_files, preset=preset, backends=backends)
+    _check_out(root, [s.path for s in specs] + list(config_files or []))
     if any(n is not None and n < 1 for n in num_views):
         raise SceneError(f"view counts must be >= 1 (got {list(num_views)})", where="--num-views", field="num_views")
     tasks = make_tasks(specs, configs, list(num_views), root)
@@ -198,7 +201,11 @@ def run_batch(
     for t in tasks:
         rec = _finished(t)
         (done.append(rec) if rec is not None else todo.append(t))
+    from ..output import read_marker, write_marker
+
     root.mkdir(parents=True, exist_ok=True)
+    if read_marker(root) is None:
+        write_marker(root, "batch")
     records = list(done)
     new: list[dict[str, Any]] = []
     bar = None
@@ -233,9 +240,9 @@ def run_batch(
 def rebuild_report(out: str | os.PathLike[str]) -> BatchSummary:
     """Rebuild the aggregate of a batch folder from its output folders (and recorded failures)."""
     root = Path(out)
-    state = _read_json(root / MARKER)
+    state = _read_json(root / STATE)
     if state is None or state.get("format") != "graphseg-batch":
-        raise SceneError(f"not a graphseg batch output (no valid {MARKER})", where=str(root), field="output")
+        raise SceneError(f"not a graphseg batch output (no valid {STATE})", where=str(root), field="output")
     records = [r for p in sorted(root.glob("runs/*/*/views-*")) if (r := record_from_output(p)) is not None]
     ok_keys = {r["key"] for r in records}
     for f in state.get("failed") or []:

@@ -13,12 +13,22 @@ import time
 import traceback
 from typing import Any
 
-__all__ = ["run_task", "record_path"]
+__all__ = ["run_task", "stage_timings"]
 
 
-def record_path(out: str) -> str:
-    """Where a task's record lives: next to (not inside) its output folder."""
-    return os.path.join(os.path.dirname(out), f".{os.path.basename(out)}.record.json")
+def stage_timings(result_info: dict[str, Any], job_timings: dict[str, float] | None = None) -> dict[str, float]:
+    """Seconds per stage of one task: read, lift, segment, match, (features), graph, evaluate.
+
+    Examples
+    --------
+    >>> stage_timings({"pipeline": {"timings": {"lift": 0.0, "segment": 2.0, "total": 9.0}}}, {"lift": 1.5, "read": 0.5})
+    {'segment': 2.0, 'lift': 1.5, 'read': 0.5}
+    """
+    out = {k: float(v) for k, v in ((result_info.get("pipeline") or {}).get("timings") or {}).items() if k not in ("total", "lift")}
+    for k in ("lift", "read", "evaluate"):
+        if job_timings and k in job_timings:
+            out[k] = float(job_timings[k])
+    return out
 
 
 def _one_line(err: BaseException) -> str:
@@ -41,10 +51,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
         "num_objects", "seconds", "pid", ...}`` plus the task's identifying fields.
     """
     from ..config import Config
-    from ..io import load_scene
-    from ..metrics import evaluate
-    from ..output import write_output
-    from ..pipeline import lift, run
+    from ..job import run_job
     from ..registry import MissingDependencyError, PluginNotFoundError
     from ..scene import SceneError
 
@@ -53,26 +60,26 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     rec["pid"] = os.getpid()
     try:
         cfg = Config.model_validate(task["config"])
-        scene = load_scene(task["scene"], num_views=task["num_views"])
         be = task.get("backends") or {}
-        t_lift = time.perf_counter()
-        scene = lift(scene, be.get("lifter"), cfg)
-        t_lift = time.perf_counter() - t_lift
-        result = run(scene, cfg, segmenter=be.get("segmenter"), matcher=be.get("matcher"))
-        metrics = None
-        if scene.has_instances:
-            metrics = evaluate(result.labels, [v.instances for v in scene.views], [v.points for v in scene.views], names=scene.objects)
         batch = {k: task[k] for k in ("key", "scene_label", "split", "method", "label", "num_views")}
-        info = {"scene": task["scene"], "views": [v.name for v in scene.views], "batch": {**batch, "lift": t_lift}}
         os.makedirs(os.path.dirname(task["out"]), exist_ok=True)
-        write_output(task["out"], result, scene, metrics=metrics, run_info=info)
+        job = run_job(
+            task["scene"],
+            task["out"],
+            cfg,
+            segmenter=be.get("segmenter"),
+            matcher=be.get("matcher"),
+            lifter=be.get("lifter"),
+            num_views=task["num_views"],
+            run_info={"batch": batch},
+        )
         rec.update(
             status="ok",
             error=None,
-            views=len(scene.views),
-            num_objects=result.num_objects,
-            metrics=(metrics or {}).get("mean"),
-            timings={**{k: float(v) for k, v in (result.info.get("pipeline") or {}).get("timings", {}).items()}, "lift": t_lift},
+            views=len(job.scene.views),
+            num_objects=job.result.num_objects,
+            metrics=(job.metrics or {}).get("mean"),
+            timings=stage_timings(job.result.info, job.timings),
         )
     except (SceneError, PluginNotFoundError, MissingDependencyError, FileNotFoundError, ValueError) as err:
         rec.update(status="failed", error=_one_line(err))

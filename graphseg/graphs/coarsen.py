@@ -107,7 +107,7 @@ def group_reduce(
         half = flat.shape[1] // 2
         lo = group_reduce(flat[:, :half], groups, num_groups, "min")
         hi = group_reduce(flat[:, half:], groups, num_groups, "max")
-        return np.concatenate([lo.reshape(num_groups, -1), hi.reshape(num_groups, -1)], 1)
+        return np.concatenate([lo.reshape(num_groups, half), hi.reshape(num_groups, flat.shape[1] - half)], 1)
     if how in ("sum", "mean") or (isinstance(how, tuple) and how[0] == "wmean"):
         w = weights if isinstance(how, tuple) else None
         if w is not None:
@@ -204,6 +204,13 @@ def coarsen(
     if n and cl.min() < 0:
         raise GraphValidationError(f"expected cluster ids >= 0 (got {int(cl.min())})")
     k = int(cl.max()) + 1 if n else 0
+    if n and k > n:
+        raise GraphValidationError(f"expected cluster ids in [0, {n}) (got max {k - 1})")
+    if n:
+        from .contract import canonical_cluster
+
+        if not np.array_equal(canonical_cluster(cl), cl):
+            raise GraphValidationError("expected a canonical cluster vector (ids 0..k-1 numbered by first appearance, none unused); pass it through canonical_cluster()")
     ntab = dict(NODE_REDUCE)
     ntab.update(node_reduce or {})
     member_count = np.bincount(cl, minlength=k).astype(np.int64)

@@ -52,19 +52,35 @@ def _flatten(cols: dict[str, np.ndarray], n: int) -> dict[str, list[Any]]:
         if col.ndim == 1:
             out[name] = col.tolist()
         else:
-            flat = col.reshape(n, -1)
+            flat = col.reshape(n, int(np.prod(col.shape[1:], dtype=np.int64)))
             for j in range(flat.shape[1]):
                 out[f"{name}_{j}"] = flat[:, j].tolist()
     return out
 
 
-def _unflatten(rows: list[dict[str, Any]], schema: dict[str, Any]) -> dict[str, np.ndarray]:
+#: Most values a GraphML schema may declare per file byte (each value needs several bytes of XML).
+_MAX_VALUES_PER_BYTE = 1
+
+
+def _unflatten(rows: list[dict[str, Any]], schema: dict[str, Any], limit: int | None = None) -> dict[str, np.ndarray]:
+    """Columns from flat rows; ``limit`` caps the total number of values declared (checked before allocating)."""
     n = len(rows)
     out: dict[str, np.ndarray] = {}
+    if not isinstance(schema, dict):
+        raise GraphValidationError(f"expected a column schema object (got {type(schema).__name__})")
+    total = 0
     for name, spec in schema.items():
-        dtype = np.dtype(spec["dtype"])
-        shape = tuple(spec["shape"])
-        width = int(np.prod(shape)) if shape else 1
+        try:
+            dtype = np.dtype(spec["dtype"])
+            shape = tuple(int(x) for x in spec["shape"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise GraphValidationError(f"{_SCHEMA}: column {name!r}: expected {{'dtype': str, 'shape': [int, ...]}} ({err})") from err
+        if dtype.hasobject or any(x < 0 for x in shape) or len(shape) > 8:
+            raise GraphValidationError(f"{_SCHEMA}: column {name!r}: invalid dtype or shape ({dtype}, {list(shape)})")
+        width = int(np.prod(shape, dtype=object)) if shape else 1
+        total += n * width
+        if limit is not None and total > limit:
+            raise GraphValidationError(f"{_SCHEMA}: column {name!r}: declares {n} x {list(shape)} values, more than the file can hold")
         if dtype.kind == "U":
             vals = [str(r.get(name, "")) for r in rows]
             out[name] = np.array(vals, dtype=str) if n else np.zeros(0, dtype="<U1")
@@ -117,7 +133,7 @@ def to_networkx(graph: CorrespondenceGraph) -> Any:
     return g
 
 
-def from_networkx(g: Any) -> CorrespondenceGraph:
+def from_networkx(g: Any, *, limit: int | None = 10**9) -> CorrespondenceGraph:
     """Inverse of :func:`to_networkx`; also accepts plain networkx graphs.
 
     Without a ``graphseg_schema`` attribute, nodes are relabelled ``0..N-1`` in
@@ -142,7 +158,12 @@ def from_networkx(g: Any) -> CorrespondenceGraph:
 
         schema = {"level": "mask", "node": infer(node_rows), "edge": infer(erows), "meta": {}}
     else:
-        schema = json.loads(raw)
+        try:
+            schema = json.loads(raw)
+        except (ValueError, RecursionError) as err:
+            raise GraphValidationError(f"{_SCHEMA}: invalid JSON ({err})") from err
+        if not isinstance(schema, dict) or not isinstance(schema.get("node", {}), dict) or not isinstance(schema.get("edge", {}), dict):
+            raise GraphValidationError(f"{_SCHEMA}: expected an object with 'node' and 'edge' column schemas")
     # undirected views lose the stored orientation; graphseg_src restores it
     oriented = [(v, u) if d.get("graphseg_src", u) != u else (u, v) for u, v, d in edge_rows]
     ei = np.array([[index[u] for u, _ in oriented], [index[v] for _, v in oriented]], dtype=np.int64).reshape(2, -1)
@@ -150,8 +171,8 @@ def from_networkx(g: Any) -> CorrespondenceGraph:
     out = CorrespondenceGraph(
         len(nodes),
         ei,
-        _unflatten(erows, schema["edge"]),
-        _unflatten(node_rows, schema["node"]),
+        _unflatten(erows, schema.get("edge", {}), limit),
+        _unflatten(node_rows, schema.get("node", {}), limit),
         members=None if members is None else {k: np.asarray(v, np.int64) for k, v in members.items()},
         level=schema.get("level", "mask"),
         meta=schema.get("meta", {}),
@@ -180,9 +201,16 @@ def write_graphml(graph: CorrespondenceGraph, path: str | PathLike[str]) -> None
 
 def read_graphml(path: str | PathLike[str]) -> CorrespondenceGraph:
     """Read a GraphML file written by :func:`write_graphml` (or any GraphML)."""
+    import os
+    import xml.etree.ElementTree as ET
+
     import networkx as nx
 
-    g = nx.read_graphml(str(path), node_type=int, force_multigraph=True)
+    size = os.path.getsize(path)
+    try:
+        g = nx.read_graphml(str(path), node_type=int, force_multigraph=True)
+    except (ET.ParseError, nx.NetworkXError, ValueError, KeyError, TypeError) as err:
+        raise GraphValidationError(f"{path}: graphml: cannot read ({(str(err) or type(err).__name__).splitlines()[0]})") from err
     # GraphML edge ids come back as str keys; restore integer order
     h = nx.MultiGraph()
     h.graph.update(g.graph)
@@ -193,7 +221,12 @@ def read_graphml(path: str | PathLike[str]) -> CorrespondenceGraph:
         except (TypeError, ValueError):
             key = k
         h.add_edge(u, v, key=key, **d)
-    return from_networkx(h)
+    try:
+        return from_networkx(h, limit=max(size * _MAX_VALUES_PER_BYTE, 1000))
+    except GraphValidationError as err:
+        raise GraphValidationError(f"{path}: {err}") from err
+    except (KeyError, ValueError, TypeError, IndexError) as err:
+        raise GraphValidationError(f"{path}: graphml: malformed ({type(err).__name__}: {(str(err) or '').splitlines()[0] if str(err) else ''})") from err
 
 
 def to_pyg(graph: CorrespondenceGraph) -> Any:

@@ -45,10 +45,74 @@ import numpy as np
 
 from .graph import CorrespondenceGraph, GraphValidationError
 
-__all__ = ["save_graph", "load_graph", "save_native", "load_native", "NativeFile", "FORMAT", "VERSION"]
+__all__ = ["save_graph", "load_graph", "save_native", "load_native", "check_npz_sizes", "NativeFile", "FORMAT", "VERSION", "MAX_ARRAY_BYTES"]
 
 FORMAT = "graphseg-graph"
 VERSION = 1
+#: Upper bound on the total decompressed size of the arrays of one file (override with
+#: the environment variable ``GRAPHSEG_MAX_ARRAY_BYTES``).
+MAX_ARRAY_BYTES = 16 * 2**30
+#: Deflate cannot compress better than about 1032:1.
+_MAX_RATIO = 1100
+
+
+def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """Read the declared shape and dtype of every array in an ``.npz`` without loading any.
+
+    Every declared size is checked against the member's size in the zip, the
+    compressed size (deflate's maximum ratio) and ``limit`` (default
+    :data:`MAX_ARRAY_BYTES` or ``$GRAPHSEG_MAX_ARRAY_BYTES``) before anything
+    is allocated.
+
+    Returns
+    -------
+    dict
+        Array name -> ``(shape, dtype)``.
+
+    Raises
+    ------
+    GraphValidationError
+        Naming the file and the array that is corrupt or too large.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     np.savez_compressed(os.path.join(d, "a.npz"), x=np.zeros((2, 3)))
+    ...     check_npz_sizes(os.path.join(d, "a.npz"))["x"][0]
+    (2, 3)
+    """
+    import zipfile
+
+    cap = int(limit if limit is not None else os.environ.get("GRAPHSEG_MAX_ARRAY_BYTES", MAX_ARRAY_BYTES))
+    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+    total = 0
+    try:
+        with zipfile.ZipFile(os.fspath(path)) as zf:
+            for info in zf.infolist():
+                name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
+                if info.file_size > max(info.compress_size, 1) * _MAX_RATIO + 2**20:
+                    raise GraphValidationError(f"{path}: {name}: declared size {info.file_size} bytes is impossible for {info.compress_size} compressed bytes (tampered file)")
+                with zf.open(info) as f:
+                    version = np.lib.format.read_magic(f)
+                    if version == (1, 0):
+                        shape, _, dtype = np.lib.format.read_array_header_1_0(f, max_header_size=10000)
+                    else:
+                        shape, _, dtype = np.lib.format.read_array_header_2_0(f, max_header_size=10000)
+                if dtype.hasobject:
+                    raise GraphValidationError(f"{path}: {name}: object arrays are not allowed")
+                nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
+                if nbytes > info.file_size:
+                    raise GraphValidationError(f"{path}: {name}: declares {list(shape)} ({nbytes} bytes) but holds {info.file_size} bytes (tampered file)")
+                total += nbytes
+                if total > cap:
+                    raise GraphValidationError(f"{path}: {name}: arrays need {total} bytes, more than the limit of {cap} (GRAPHSEG_MAX_ARRAY_BYTES)")
+                out[name] = (tuple(int(x) for x in shape), dtype)
+    except (zipfile.BadZipFile, ValueError, EOFError, OSError, SyntaxError) as err:
+        if isinstance(err, (FileNotFoundError, GraphValidationError)):
+            raise
+        raise GraphValidationError(f"{path}: file: not a valid .npz ({str(err).splitlines()[0] if str(err) else type(err).__name__})") from err
+    return out
 
 
 @dataclass
@@ -145,12 +209,29 @@ def save_native(
 def load_native(path: str | PathLike[str]) -> NativeFile:
     """Read a file written by :func:`save_native`.
 
+    Declared array sizes are checked before anything is allocated
+    (:func:`check_npz_sizes`).
+
     Raises
     ------
     GraphValidationError
-        If the file is not a graphseg native file or has an unknown version.
+        If the file is not a graphseg native file, has an unknown version, or is
+        corrupt or tampered (the message names the file and the entry).
     """
+    try:
+        return _load_native(path)
+    except GraphValidationError:
+        raise
+    except (KeyError, ValueError, TypeError, IndexError, AttributeError, EOFError, UnicodeDecodeError) as err:
+        text = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise GraphValidationError(f"{path}: file: corrupt or tampered graphseg file ({type(err).__name__}: {text})") from err
+
+
+def _load_native(path: str | PathLike[str]) -> NativeFile:
+    declared = check_npz_sizes(path)
     with np.load(os.fspath(path), allow_pickle=False) as z:
+        if declared.get("__header__", ((0,), None))[0] > (2**24,):
+            raise GraphValidationError(f"{path}: __header__: larger than 16 MiB")
         if "__header__" not in z.files:
             raise GraphValidationError(f"{path}: not a graphseg native file (no __header__)")
         header = json.loads(bytes(z["__header__"]).decode())

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import check_size, read_label, read_rgb, read_uint16, require_folder
+from .checks import intrinsics, matrix, positive, reading, rigid
+from .images import check_size, confine, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_bop", "is_bop"]
@@ -33,8 +34,8 @@ def _json(path: Path) -> Any:
     if not path.is_file():
         raise SceneError("file not found", where=str(path), field=path.stem)
     try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as err:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as err:
         raise SceneError(f"invalid JSON ({err})", where=str(path), field=path.stem) from err
 
 
@@ -57,7 +58,16 @@ def read_bop(
     root = require_folder(path)
     cams = _json(root / "scene_camera.json")
     gts = _json(root / "scene_gt.json") if (root / "scene_gt.json").exists() else {}
-    ims = sorted(int(k) for k in cams)
+    cw = str(root / "scene_camera.json")
+    if not isinstance(cams, dict):
+        raise SceneError("expected a JSON object keyed by image id", where=cw, field="scene_camera")
+    if not isinstance(gts, dict):
+        raise SceneError("expected a JSON object keyed by image id", where=str(root / "scene_gt.json"), field="scene_gt")
+    with reading(cw, "scene_camera"):
+        keys = {int(k): k for k in cams}
+        ims = sorted(keys)
+    if any(im < 0 for im in ims):
+        raise SceneError("image ids must be >= 0", where=cw, field="scene_camera")
     if not ims:
         raise SceneError("no images", where=str(root / "scene_camera.json"), field="scene_camera")
     names = [f"{im:06d}" for im in ims]
@@ -67,30 +77,45 @@ def read_bop(
     objects: dict[int, str] = {}
     for i in idx:
         im = ims[i]
-        cam = cams[str(im)]
+        cam = cams[keys[im]]
         where = str(root / "scene_camera.json")
+        if not isinstance(cam, dict):
+            raise SceneError("expected an object", where=where, field=keys[im])
         if "cam_R_w2c" not in cam or "cam_t_w2c" not in cam:
             raise SceneError(
                 f"image {im} has no cam_R_w2c/cam_t_w2c: this BOP scene has no camera poses, which multi-view segmentation needs",
                 where=where,
                 field="cam_R_w2c",
             )
-        K = np.asarray(cam["cam_K"], np.float64).reshape(3, 3)
-        w2c = np.eye(4)
-        w2c[:3, :3] = np.asarray(cam["cam_R_w2c"], np.float64).reshape(3, 3)
-        w2c[:3, 3] = np.asarray(cam["cam_t_w2c"], np.float64).reshape(3) / 1000.0
-        rgb = read_rgb(_image(rgb_dir, im))
+        f = f"{im}"
+        with reading(where, f):
+            if not isinstance(cam, dict):
+                raise SceneError("expected an object", where=where, field=f)
+            K = intrinsics(cam.get("cam_K"), where=where, field=f"{f}.cam_K")
+            w2c = np.eye(4)
+            w2c[:3, :3] = matrix(cam["cam_R_w2c"], (3, 3), where=where, field=f"{f}.cam_R_w2c")
+            w2c[:3, 3] = matrix(cam["cam_t_w2c"], (3,), where=where, field=f"{f}.cam_t_w2c") / 1000.0
+            w2c = rigid(w2c, where=where, field=f"{f}.cam_R_w2c")
+            T = np.linalg.inv(w2c)
+            dscale = positive(cam.get("depth_scale", 1.0), where=where, field=f"{f}.depth_scale")
+        rgb = read_rgb(confine(root, _image(rgb_dir, im).relative_to(root), where=str(root), field="rgb"))
         depth = None
         if (root / "depth").exists():
-            raw = check_size(read_uint16(_image(root / "depth", im)), rgb, root / "depth", "depth")
-            depth = raw.astype(np.float32) * np.float32(float(cam.get("depth_scale", 1.0)) / 1000.0)
+            dpath = confine(root, _image(root / "depth", im).relative_to(root), where=str(root), field="depth")
+            raw = check_size(read_uint16(dpath), rgb, dpath, "depth")
+            depth = raw.astype(np.float32) * np.float32(dscale / 1000.0)
         inst = None
-        entries = gts.get(str(im), [])
+        entries = gts.get(keys[im], gts.get(str(im), []))
+        gw = str(root / "scene_gt.json")
+        if not isinstance(entries, list):
+            raise SceneError("expected a list", where=gw, field=f)
         if entries and (root / "mask_visib").exists():
             inst = np.zeros(rgb.shape[:2], np.int32)
             for k, e in enumerate(entries):
-                m = read_label(root / "mask_visib" / f"{im:06d}_{k:06d}.png", field="mask_visib") > 0
+                mpath = confine(root, f"mask_visib/{im:06d}_{k:06d}.png", where=str(root), field="mask_visib")
+                m = check_size(read_label(mpath, field="mask_visib"), rgb, mpath, "mask_visib") > 0
                 inst[m] = k + 1
-                objects.setdefault(k + 1, f"obj_{int(e['obj_id']):06d}")
-        out.append(View(f"{im:06d}", rgb, depth=depth, K=K, cam_to_world=np.linalg.inv(w2c), instances=inst))
+                with reading(gw, f"{f}[{k}].obj_id"):
+                    objects.setdefault(k + 1, f"obj_{int(e['obj_id']):06d}")
+        out.append(View(f"{im:06d}", rgb, depth=depth, K=K, cam_to_world=T, instances=inst))
     return Scene(out, objects, name=f"bop-{root.name}", meta={"source": str(root), "format": "bop"})

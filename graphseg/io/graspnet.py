@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import check_size, read_label, read_rgb, read_uint16, require_folder
+from .checks import intrinsics, matrix, positive, reading, rigid
+from .images import check_size, confine, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_graspnet", "is_graspnet"]
@@ -29,6 +30,20 @@ def _camera_dir(path: Path, camera: str) -> Path:
     if (path / camera / "camera_poses.npy").exists():
         return path / camera
     raise SceneError(f"not a GraspNet scene (no camera_poses.npy here or in {camera}/)", where=str(path), field="camera_poses")
+
+
+def _npy(root: Path, path: Path, field: str) -> np.ndarray:
+    """A small numeric ``.npy`` inside ``root`` (no pickle; at most 64 MiB)."""
+    p = confine(root, path.relative_to(root), where=str(root), field=field)
+    if p.stat().st_size > 64 * 2**20:
+        raise SceneError("larger than 64 MiB", where=str(p), field=field)
+    try:
+        arr = np.array(np.load(p, mmap_mode="r", allow_pickle=False))
+    except (ValueError, OSError, EOFError) as err:
+        raise SceneError(f"cannot read .npy ({str(err).splitlines()[0] if str(err) else type(err).__name__})", where=str(p), field=field) from err
+    if not isinstance(arr, np.ndarray) or arr.dtype.kind not in "fiu":
+        raise SceneError("expected a numeric array", where=str(p), field=field)
+    return arr
 
 
 def is_graspnet(path: str | os.PathLike[str]) -> bool:
@@ -49,34 +64,51 @@ def read_graspnet(
 
     root = require_folder(path)
     cam = _camera_dir(root, camera)
-    poses = np.load(cam / "camera_poses.npy")
+    pw = str(cam / "camera_poses.npy")
+    poses = _npy(root, cam / "camera_poses.npy", "camera_poses")
     if poses.ndim != 3 or poses.shape[1:] != (4, 4):
-        raise SceneError(f"expected [N, 4, 4] (got {list(poses.shape)})", where=str(cam / "camera_poses.npy"), field="camera_poses")
+        raise SceneError(f"expected [N, 4, 4] (got {list(poses.shape)})", where=pw, field="camera_poses")
     frames = sorted(p.stem for p in (cam / "rgb").glob("*.png"))
     if not frames:
         raise SceneError("no rgb/*.png frames", where=str(cam), field="views")
-    table = np.load(cam / "cam0_wrt_table.npy") if (cam / "cam0_wrt_table.npy").exists() else np.eye(4)
-    camK = np.load(cam / "camK.npy") if (cam / "camK.npy").exists() else None
+    if not all(fr.isdigit() for fr in frames):
+        bad = next(fr for fr in frames if not fr.isdigit())
+        raise SceneError(f"expected numbered frames NNNN.png (got {bad!r})", where=str(cam / "rgb"), field="views")
+    table = np.eye(4)
+    if (cam / "cam0_wrt_table.npy").exists():
+        table = rigid(_npy(root, cam / "cam0_wrt_table.npy", "cam0_wrt_table"), where=str(cam / "cam0_wrt_table.npy"), field="cam0_wrt_table")
+    camK = None
+    if (cam / "camK.npy").exists():
+        camK = intrinsics(_npy(root, cam / "camK.npy", "camK"), where=str(cam / "camK.npy"), field="camK")
     idx = select_indices(len(frames), views=views, step=step, num_views=num_views, names=frames, where=str(cam))
     out = []
     for i in idx:
         fr = frames[i]
         k = int(fr)
         if k >= len(poses):
-            raise SceneError(f"frame {fr} has no pose ({len(poses)} poses)", where=str(cam / "camera_poses.npy"), field="camera_poses")
+            raise SceneError(f"frame {fr} has no pose ({len(poses)} poses)", where=pw, field="camera_poses")
         meta_path = cam / "meta" / f"{fr}.mat"
         if meta_path.exists():
-            meta = loadmat(str(meta_path))
-            K = np.asarray(meta["intrinsic_matrix"], np.float64)
-            factor = float(np.asarray(meta["factor_depth"]).ravel()[0])
+            mw = str(confine(root, meta_path.relative_to(root), where=str(root), field="meta"))
+            try:
+                meta = loadmat(mw)
+            except Exception as err:  # scipy raises several types for corrupt files
+                raise SceneError(f"cannot read .mat ({str(err).splitlines()[0] if str(err) else type(err).__name__})", where=mw, field="meta") from err
+            with reading(mw, "meta"):
+                K = intrinsics(meta["intrinsic_matrix"], where=mw, field="intrinsic_matrix")
+                factor = positive(meta["factor_depth"], where=mw, field="factor_depth")
         elif camK is not None:
-            K, factor = np.asarray(camK, np.float64), 1000.0
+            K, factor = camK, 1000.0
         else:
             raise SceneError("no meta file and no camK.npy", where=str(meta_path), field="intrinsic_matrix")
-        rgb = read_rgb(cam / "rgb" / f"{fr}.png")
-        raw = check_size(read_uint16(cam / "depth" / f"{fr}.png"), rgb, cam / "depth" / f"{fr}.png", "depth")
+        T = rigid(table @ matrix(poses[k], (4, 4), where=pw, field=f"camera_poses[{k}]"), where=pw, field=f"camera_poses[{k}]")
+        rgb = read_rgb(confine(root, (cam / "rgb" / f"{fr}.png").relative_to(root), where=str(root), field="rgb"))
+        dpath = confine(root, (cam / "depth" / f"{fr}.png").relative_to(root), where=str(root), field="depth")
+        raw = check_size(read_uint16(dpath), rgb, dpath, "depth")
         lab_path = cam / "label" / f"{fr}.png"
-        inst = read_label(lab_path) if lab_path.exists() else None
-        T = table @ poses[k]
+        inst = None
+        if lab_path.exists():
+            lp = confine(root, lab_path.relative_to(root), where=str(root), field="label")
+            inst = check_size(read_label(lp), rgb, lp, "label")
         out.append(View(fr, rgb, depth=raw.astype(np.float32) / np.float32(factor), K=K, cam_to_world=T, instances=inst))
     return Scene(out, name=f"graspnet-{root.name}", meta={"source": str(cam), "format": "graspnet"})

@@ -41,16 +41,36 @@ def write_ply(path: str | os.PathLike[str], points: np.ndarray, colors: np.ndarr
 
 
 def read_ply(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray | None]:
-    """Read a PLY written by :func:`write_ply`: points float32 ``[P, 3]`` and colours or None."""
+    """Read a PLY written by :func:`write_ply`: points float32 ``[P, 3]`` and colours or None.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, for anything but a well-formed binary little-endian
+        PLY of that layout (the vertex count is checked against the file size
+        before reading).
+    """
     data = Path(path).read_bytes()
-    end = data.index(b"end_header\n") + len(b"end_header\n")
-    header = data[:end].decode("ascii").splitlines()
+    marker = b"end_header\n"
+    if not data.startswith(b"ply\n") or marker not in data[:4096]:
+        raise ValueError(f"{path}: not a PLY file (no 'ply' / 'end_header' in the first 4 KiB)")
+    end = data.index(marker) + len(marker)
+    try:
+        header = data[:end].decode("ascii").splitlines()
+    except UnicodeDecodeError as err:
+        raise ValueError(f"{path}: PLY header is not ASCII") from err
     if "format binary_little_endian 1.0" not in header:
         raise ValueError(f"{path}: only binary little-endian PLY is supported")
-    n = int(next(ln.split()[-1] for ln in header if ln.startswith("element vertex")))
+    counts = [ln.split()[-1] for ln in header if ln.startswith("element vertex")]
+    if len(counts) != 1 or not counts[0].isdigit():
+        raise ValueError(f"{path}: expected one 'element vertex N' line")
+    n = int(counts[0])
     has_color = "property uchar red" in header
     fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")] + ([("red", "u1"), ("green", "u1"), ("blue", "u1")] if has_color else [])
-    rec = np.frombuffer(data[end:], dtype=fields, count=n)
+    dtype = np.dtype(fields)
+    if n * dtype.itemsize > len(data) - end:
+        raise ValueError(f"{path}: declares {n} vertices but holds {(len(data) - end) // dtype.itemsize}")
+    rec = np.frombuffer(data[end:], dtype=dtype, count=n)
     pts = np.stack([rec["x"], rec["y"], rec["z"]], 1)
     cols = np.stack([rec["red"], rec["green"], rec["blue"]], 1) if has_color else None
     return pts, cols

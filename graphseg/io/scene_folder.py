@@ -50,10 +50,19 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View, is_rigid
-from .images import check_size, read_label, read_rgb, read_uint16, write_png, write_rgb
+from .images import (
+    check_size,
+    confine,
+    read_label,
+    read_rgb,
+    read_uint16,
+    unique_file_names,
+    write_png,
+    write_rgb,
+)
 from .select import select_indices
 
-__all__ = ["read_scene_folder", "write_scene_folder", "FORMAT", "VERSION", "IMAGE_SUFFIXES"]
+__all__ = ["read_scene_folder", "write_scene_folder", "fill_scene_folder", "FORMAT", "VERSION", "IMAGE_SUFFIXES"]
 
 FORMAT = "graphseg-scene"
 VERSION = 1
@@ -73,7 +82,9 @@ def _matrix(value: Any, shape: tuple[int, int], where: str, field: str) -> np.nd
 
 
 def _rgb_only(root: Path, views: Any, step: Any, num_views: Any) -> Scene:
-    files = sorted(p for p in root.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+    files = sorted(p for p in root.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not p.name.startswith("."))
+    for p in files:
+        confine(root, p.name, where=str(root), field=p.name)
     if not files:
         raise SceneError("no scene.json and no images (an empty scene)", where=str(root), field="views")
     names = [p.stem for p in files]
@@ -120,8 +131,8 @@ def read_scene_folder(
         return _rgb_only(root, views, step, num_views)
     where = str(sj)
     try:
-        doc = json.loads(sj.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        doc = json.loads(sj.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as err:
         raise SceneError(f"invalid JSON ({err})", where=where, field="scene.json") from err
     if not isinstance(doc, dict):
         raise SceneError("expected a JSON object", where=where, field="scene.json")
@@ -155,13 +166,14 @@ def read_scene_folder(
     for k in idx:
         vd = vlist[k]
         f = f"views[{k}]"
-        rgb = read_rgb(root / vd["rgb"], field=f"{f}.rgb")
+        paths = {key: confine(root, vd[key], where=where, field=f"{f}.{key}") for key in ("rgb", "depth", "instances") if vd.get(key) is not None}
+        rgb = read_rgb(paths["rgb"], field=f"{f}.rgb")
         depth = inst = K = T = None
-        if vd.get("depth") is not None:
-            raw = check_size(read_uint16(root / vd["depth"], field=f"{f}.depth"), rgb, root / vd["depth"], f"{f}.depth")
+        if "depth" in paths:
+            raw = check_size(read_uint16(paths["depth"], field=f"{f}.depth"), rgb, paths["depth"], f"{f}.depth")
             depth = raw.astype(np.float32) / np.float32(scale)
-        if vd.get("instances") is not None:
-            inst = check_size(read_label(root / vd["instances"], field=f"{f}.instances"), rgb, root / vd["instances"], f"{f}.instances")
+        if "instances" in paths:
+            inst = check_size(read_label(paths["instances"], field=f"{f}.instances"), rgb, paths["instances"], f"{f}.instances")
         if vd.get("K") is not None:
             K = _matrix(vd["K"], (3, 3), where, f"{f}.K")
             if K[0, 0] <= 0 or K[1, 1] <= 0:
@@ -179,46 +191,63 @@ def write_scene_folder(scene: Scene, path: str | os.PathLike[str], *, depth_scal
     """Write ``scene`` as a format-v1 folder (via a temporary sibling, then renamed).
 
     Depth is stored as ``round(depth * depth_scale)`` in 16 bits (0 = invalid);
-    values beyond 65535 / depth_scale metres become invalid.
+    values beyond 65535 / depth_scale metres become invalid. File names come
+    from the view names, made safe and unique (:func:`~graphseg.io.images.unique_file_names`).
+    An existing ``path`` is replaced only with ``overwrite=True`` (and only
+    after the new folder is complete).
     """
     dest = Path(path)
+    if dest.is_symlink():
+        raise FileExistsError(f"{dest} is a symbolic link")
     if dest.exists() and not overwrite:
         raise FileExistsError(f"{dest} exists (pass overwrite=True)")
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=dest.parent))
     try:
-        views = []
-        for v in scene.views:
-            entry: dict[str, Any] = {"name": v.name, "rgb": f"rgb/{v.name}.png"}
-            (tmp / "rgb").mkdir(exist_ok=True)
-            write_rgb(tmp / entry["rgb"], v.rgb)
-            if v.depth is not None:
-                (tmp / "depth").mkdir(exist_ok=True)
-                d = np.nan_to_num(np.asarray(v.depth, np.float64), nan=0.0) * depth_scale
-                d = np.where((d > 0) & (d <= 65535), np.rint(d), 0).astype(np.uint16)
-                entry["depth"] = f"depth/{v.name}.png"
-                write_png(tmp / entry["depth"], d)
-            if v.instances is not None:
-                (tmp / "instances").mkdir(exist_ok=True)
-                entry["instances"] = f"instances/{v.name}.png"
-                write_png(tmp / entry["instances"], np.asarray(v.instances).astype(np.uint16))
-            if v.K is not None:
-                entry["K"] = np.asarray(v.K, np.float64).tolist()
-            if v.cam_to_world is not None:
-                entry["cam_to_world"] = np.asarray(v.cam_to_world, np.float64).tolist()
-            views.append(entry)
-        doc = {
-            "format": FORMAT,
-            "version": VERSION,
-            "depth_scale": float(depth_scale),
-            "views": views,
-            "objects": [{"id": int(k), "name": str(n)} for k, n in sorted(scene.objects.items())],
-        }
-        (tmp / "scene.json").write_text(json.dumps(doc, indent=1))
+        fill_scene_folder(scene, tmp, depth_scale=depth_scale)
         if dest.exists():
-            shutil.rmtree(dest)
-        os.replace(tmp, dest)
+            old = Path(tempfile.mkdtemp(prefix=f".{dest.name}.old-", dir=dest.parent))
+            os.replace(dest, old / "x")
+            os.replace(tmp, dest)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, dest)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return dest
+
+
+def fill_scene_folder(scene: Scene, folder: str | os.PathLike[str], *, depth_scale: float = 1000.0) -> None:
+    """Write the files of a format-v1 scene into the existing (empty) ``folder``."""
+    tmp = Path(folder)
+    tmp.mkdir(parents=True, exist_ok=True)
+    views = []
+    files = unique_file_names([v.name for v in scene.views])
+    for v, stem in zip(scene.views, files):
+        entry: dict[str, Any] = {"name": v.name, "rgb": f"rgb/{stem}.png"}
+        (tmp / "rgb").mkdir(exist_ok=True)
+        write_rgb(tmp / entry["rgb"], v.rgb)
+        if v.depth is not None:
+            (tmp / "depth").mkdir(exist_ok=True)
+            d = np.nan_to_num(np.asarray(v.depth, np.float64), nan=0.0) * depth_scale
+            d = np.where((d > 0) & (d <= 65535), np.rint(d), 0).astype(np.uint16)
+            entry["depth"] = f"depth/{stem}.png"
+            write_png(tmp / entry["depth"], d)
+        if v.instances is not None:
+            (tmp / "instances").mkdir(exist_ok=True)
+            entry["instances"] = f"instances/{stem}.png"
+            write_png(tmp / entry["instances"], np.asarray(v.instances).astype(np.uint16))
+        if v.K is not None:
+            entry["K"] = np.asarray(v.K, np.float64).tolist()
+        if v.cam_to_world is not None:
+            entry["cam_to_world"] = np.asarray(v.cam_to_world, np.float64).tolist()
+        views.append(entry)
+    doc = {
+        "format": FORMAT,
+        "version": VERSION,
+        "depth_scale": float(depth_scale),
+        "views": views,
+        "objects": [{"id": int(k), "name": str(n)} for k, n in sorted(scene.objects.items())],
+    }
+    (tmp / "scene.json").write_text(json.dumps(doc, indent=1), encoding="utf-8")

@@ -1,11 +1,20 @@
 """View selection shared by every reader: ``views=[0, 5, 10]``, ``step=26`` or ``num_views=10``.
 
+A string entry of ``views`` is matched against the view names first and, only
+if no view has that name, read as an index (so ``"000001"`` on YCB-Video is the
+frame named ``000001``, and ``"3"`` on a scene without such a name is index 3).
+Integer entries are always indices.
+
 Examples
 --------
 >>> select_indices(20, num_views=5)
 [0, 5, 10, 14, 19]
 >>> select_indices(10, step=4), select_indices(10, views=[2, 7])
 ([0, 4, 8], [2, 7])
+>>> select_indices(3, views=["2", "1"], names=["1", "2", "5"])   # names first
+[1, 0]
+>>> select_indices(3, views=["2"], names=["a", "b", "c"])        # then indices
+[2]
 """
 
 from __future__ import annotations
@@ -20,14 +29,14 @@ __all__ = ["select_indices", "parse_views"]
 
 
 def parse_views(text: str) -> list[int | str]:
-    """``"0,5,10"`` -> ``[0, 5, 10]``; entries that are not integers stay names."""
-    out: list[int | str] = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        out.append(int(part) if part.lstrip("-").isdigit() else part)
-    return out
+    """``"0,5,a"`` -> ``["0", "5", "a"]``: the entries as strings (names first, then indices; see the module docstring).
+
+    Examples
+    --------
+    >>> parse_views(" 0, 5,,a ")
+    ['0', '5', 'a']
+    """
+    return [part.strip() for part in text.split(",") if part.strip()]
 
 
 def select_indices(
@@ -45,17 +54,24 @@ def select_indices(
         raise SceneError("choose at most one of views, step and num_views", where=where, field="views")
     if views is not None:
         out = []
+        name_list = list(names) if names is not None else []
         for v in views:
             if isinstance(v, str):
-                if names is None or v not in names:
-                    raise SceneError(f"unknown view {v!r}", where=where, field="views")
-                out.append(list(names).index(v))
-            else:
-                if not -n <= v < n:
-                    raise SceneError(f"unknown view {v} (the scene has {n} views)", where=where, field="views")
-                out.append(v % n)
+                if v in name_list:
+                    out.append(name_list.index(v))
+                    continue
+                if not v.lstrip("-").isdigit():
+                    raise SceneError(f"unknown view {v!r} (no view has that name)", where=where, field="views")
+                v = int(v)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                raise SceneError(f"expected view names or indices (got {v!r})", where=where, field="views")
+            if not -n <= v < n:
+                raise SceneError(f"unknown view {v} (the scene has {n} views)", where=where, field="views")
+            out.append(int(v) % n)
         if not out:
             raise SceneError("no views selected", where=where, field="views")
+        if len(set(out)) != len(out):
+            raise SceneError("a view is selected twice", where=where, field="views")
         return out
     if step is not None:
         if step < 1:

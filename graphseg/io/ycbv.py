@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..scene import Scene, SceneError, View
-from .images import check_size, read_label, read_rgb, read_uint16, require_folder
+from .checks import intrinsics, matrix, positive, reading, rigid
+from .images import check_size, confine, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
 __all__ = ["read_ycbv", "is_ycbv"]
@@ -62,24 +63,31 @@ def read_ycbv(
     out = []
     for i in idx:
         fr = frames[i]
-        meta = _meta(root / f"{fr}-meta.mat")
-        rgb = read_rgb(root / f"{fr}-color.png")
-        raw = check_size(read_uint16(root / f"{fr}-depth.png"), rgb, root / f"{fr}-depth.png", "depth")
-        depth = raw.astype(np.float32) / np.float32(float(np.asarray(meta["factor_depth"]).ravel()[0]))
-        K = np.asarray(meta["intrinsic_matrix"], np.float64)
-        Rt = np.asarray(meta["rotation_translation_matrix"], np.float64)
-        if Rt.shape != (3, 4) or K.shape != (3, 3):
-            raise SceneError(f"expected K 3x3 and [R|t] 3x4 (got {list(K.shape)}, {list(Rt.shape)})", where=str(root / f"{fr}-meta.mat"), field="rotation_translation_matrix")
-        w2c = np.eye(4)
-        w2c[:3] = Rt
-        T = np.linalg.inv(w2c)
+        mpath = confine(root, f"{fr}-meta.mat", where=str(root), field="meta")
+        meta = _meta(mpath)
+        mw = str(mpath)
+        with reading(mw, "meta"):
+            factor = positive(meta["factor_depth"], where=mw, field="factor_depth")
+            K = intrinsics(meta["intrinsic_matrix"], where=mw, field="intrinsic_matrix")
+            Rt = matrix(meta["rotation_translation_matrix"], (3, 4), where=mw, field="rotation_translation_matrix")
+            w2c = np.eye(4)
+            w2c[:3] = Rt
+            w2c = rigid(w2c, where=mw, field="rotation_translation_matrix")
+            T = np.linalg.inv(w2c)
+        rgb = read_rgb(confine(root, f"{fr}-color.png", where=str(root), field="rgb"))
+        dpath = confine(root, f"{fr}-depth.png", where=str(root), field="depth")
+        raw = check_size(read_uint16(dpath), rgb, dpath, "depth")
+        depth = raw.astype(np.float32) / np.float32(factor)
         lab_path = root / f"{fr}-label.png"
-        inst = read_label(lab_path) if lab_path.exists() else None
+        inst = None
+        if lab_path.exists():
+            inst = check_size(read_label(confine(root, lab_path.name, where=str(root), field="label")), rgb, lab_path, "label")
         out.append(View(fr, rgb, depth=depth, K=K, cam_to_world=T, instances=inst))
     objects: dict[int, str] = {}
     classes = root.parent / "classes.txt"
     if classes.is_file():
-        names = [ln.strip() for ln in classes.read_text().splitlines() if ln.strip()]
+        with reading(str(classes), "classes"):
+            names = [ln.strip() for ln in classes.read_text(encoding="utf-8", errors="replace").splitlines() if ln.strip()]
         present = set().union(*(set(np.unique(v.instances).tolist()) for v in out if v.instances is not None))
         objects = {k: names[k - 1] for k in sorted(present) if 0 < k <= len(names)}
     return Scene(out, objects, name=f"ycbv-{root.name}", meta={"source": str(root), "format": "ycbv"})

@@ -65,6 +65,53 @@ def _check_inputs(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, in
             raise TypeError(f"expected Matches for pair {(i, j)} (got {type(m).__name__})")
 
 
+def _validate_masks(scene: Scene, masks: MasksLike) -> list[Any]:
+    """Check each view's masks; return them with bool stacks split into lists."""
+    out: list[Any] = []
+    for view, m in zip(scene.views, masks):
+        h, w = view.shape
+        if isinstance(m, np.ndarray):
+            if m.ndim == 2 and m.shape == (h, w) and m.dtype.kind in "iu":
+                out.append(m)
+                continue
+            if m.ndim == 3 and m.shape[1:] == (h, w) and m.dtype == bool:
+                out.append(list(m))
+                continue
+            raise SceneError(
+                f"expected an int label image [{h}, {w}] or a bool stack [K, {h}, {w}] (got {m.dtype} {list(m.shape)})", where=view.name, field="masks"
+            )
+        if not isinstance(m, (list, tuple)):
+            raise SceneError(f"expected a list of bool masks [{h}, {w}], a bool stack or a label image (got {type(m).__name__})", where=view.name, field="masks")
+        for k, mk in enumerate(m):
+            a = np.asarray(mk)
+            if a.shape != (h, w) or a.dtype.kind not in "biu":
+                raise SceneError(f"expected a bool mask [{h}, {w}] (got {a.dtype} {list(a.shape)})", where=view.name, field=f"masks[{k}]")
+        out.append(list(m))
+    return out
+
+
+def _finite_points(points: np.ndarray) -> np.ndarray:
+    """``points`` with every pixel that has a non-finite coordinate set to NaN (a copy only if needed)."""
+    p = np.asarray(points)
+    bad = ~np.isfinite(p).all(axis=-1)
+    if not bad.any():
+        return p
+    p = p.astype(np.float32, copy=True)
+    p[bad] = np.nan
+    return p
+
+
+def _degenerate_warnings(scene: Scene, graph: CorrespondenceGraph, num_objects: int) -> list[str]:
+    warn = []
+    if scene.num_views == 1:
+        warn.append("only one view: no cross-view evidence, every mask is its own object")
+    if graph.num_nodes == 0:
+        warn.append("no usable masks (every mask was empty, background, or below masks.min_area): 0 objects")
+    elif num_objects == 0:
+        warn.append("0 objects found")
+    return warn
+
+
 def segment(
     scene: Scene,
     masks: MasksLike,
@@ -93,6 +140,15 @@ def segment(
     Returns
     -------
     Result
+        ``info["warnings"]`` lists one-line warnings for degenerate input (one
+        view, no usable mask, no object); such input still gives a valid result.
+
+    Raises
+    ------
+    SceneError
+        For an invalid scene (duplicate view names, non-rigid poses, wrong
+        shapes) or masks of the wrong shape or dtype ("expected ... (got ...)").
+        Non-finite points are treated as invalid pixels.
 
     Notes
     -----
@@ -101,11 +157,13 @@ def segment(
     plus k-d tree queries of candidate pairs).
     """
     cfg = config or Config()
+    scene.validate()
     _check_inputs(scene, masks, matches)
+    masks = _validate_masks(scene, masks)
     rng = np.random.default_rng(cfg.seed)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    points = [np.asarray(v.points) for v in scene.views]  # all present (checked above)
+    points = [_finite_points(np.asarray(v.points)) for v in scene.views]  # all present (checked above); inf -> invalid
     centers = [v.camera_center for v in scene.views] if all(v.cam_to_world is not None for v in scene.views) else None
     bg, bg_info = background_masks(points, centers, cfg.background, rng=rng)
     timings["background"] = time.perf_counter() - t0
@@ -114,8 +172,6 @@ def segment(
     labels, compose_info = [], []
     for v, view in enumerate(scene.views):
         m = masks[v]
-        if isinstance(m, np.ndarray) and m.ndim == 3 and m.dtype == bool:
-            m = list(m)
         lab, info = compose_masks(m, background=bg[v], max_overlap=cfg.background.max_overlap, min_area=cfg.masks.min_area)
         if lab.shape != view.shape:
             raise ValueError(f"view {view.name}: masks are {list(lab.shape)} but the image is {list(view.shape)}")
@@ -183,5 +239,6 @@ def segment(
             "timings": timings,
             "num_matches": int(sum(len(m) for m in matches.values())),
             "pairs": [list(p) for p in matches],
+            "warnings": _degenerate_warnings(scene, graph, num_objects),
         },
     )

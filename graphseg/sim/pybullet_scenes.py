@@ -91,6 +91,21 @@ def render_view(
     return rgb, depth, body, projection_K(w, h, fov_deg), T
 
 
+#: The most objects :func:`synthesize` drops onto the table.
+MAX_OBJECTS = 16
+
+
+def _check_args(seed: int, objects: int, views: int, size: tuple[int, int]) -> None:
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected an integer >= 0 (got {seed!r})")
+    if not 1 <= objects <= MAX_OBJECTS:
+        raise ValueError(f"objects: expected 1..{MAX_OBJECTS} (got {objects})")
+    if not 1 <= views <= 360:
+        raise ValueError(f"views: expected 1..360 (got {views})")
+    if len(size) != 2 or min(size) < 16 or max(size) > 8192:
+        raise ValueError(f"size: expected WIDTHxHEIGHT with sides 16..8192 (got {size})")
+
+
 def synthesize(
     seed: int = 0,
     objects: int = 6,
@@ -109,14 +124,26 @@ def synthesize(
     Returns
     -------
     Scene
-        Views named ``000``..; ``meta`` records the seed and the assets used.
+        Views named ``000``..; ``meta`` records the seed, the assets used, and
+        ``fell_off``: the names of dropped objects that did not stay on the table.
+
+    Raises
+    ------
+    ValueError
+        For ``seed < 0``, ``objects`` outside ``[1, MAX_OBJECTS]``, ``views``
+        outside ``[1, 360]`` or a size below 16 pixels.
     """
-    p = require("pybullet", "sim")
-    pybullet_data = require("pybullet_data", "sim")
+    _check_args(seed, objects, views, size)
+    from ..quiet import native_silence
+
+    with native_silence():  # pybullet prints its build banner on fd 1
+        p = require("pybullet", "sim")
+        pybullet_data = require("pybullet_data", "sim")
     rng = np.random.default_rng(seed)
     w, h = size
     near, far = 0.05, 6.0
-    cid = p.connect(p.DIRECT)
+    with native_silence():
+        cid = p.connect(p.DIRECT)
     try:
         p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
@@ -168,8 +195,9 @@ def synthesize(
                 inst[body == b] = k
             out.append(View(f"{i:03d}", rgb, depth=depth, K=K, cam_to_world=T, instances=inst))
         objects_named = {ids[b]: a.name or a.urdf for b, a in kept}
+        fell_off = [a.name or a.urdf for b, a in bodies if b not in ids]
         _ = table
     finally:
         p.disconnect(physicsClientId=cid)
-    meta: dict[str, Any] = {"seed": seed, "generator": "graphseg.sim.pybullet_scenes", "fov_deg": fov_deg}
+    meta: dict[str, Any] = {"seed": seed, "generator": "graphseg.sim.pybullet_scenes", "fov_deg": fov_deg, "objects_requested": objects, "fell_off": fell_off}
     return Scene(out, objects_named, name=f"synth-{seed}", meta=meta)
