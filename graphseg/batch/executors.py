@@ -17,9 +17,7 @@ tasks and re-raises :class:`KeyboardInterrupt`; finished outputs are untouched.
 
 from __future__ import annotations
 
-import glob
 import os
-import shutil
 import signal
 import sys
 from collections import deque
@@ -46,9 +44,9 @@ def failed_record(task: dict[str, Any], error: str) -> Record:
 
 def remove_partial(task: dict[str, Any]) -> None:
     """Remove the temporary siblings an interrupted task left next to its output folder."""
-    out = task["out"]
-    for tmp in glob.glob(os.path.join(glob.escape(os.path.dirname(out)), f".{glob.escape(os.path.basename(out))}.tmp-*")):
-        shutil.rmtree(tmp, ignore_errors=True)
+    from ..output import clean_stale
+
+    clean_stale(task["out"])
 
 
 def _worker_main(conn: Any) -> None:  # pragma: no cover - runs in the child process

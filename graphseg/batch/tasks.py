@@ -227,6 +227,7 @@ def configurations(
     from ..config import Config
 
     out: list[Configuration] = []
+    backends = {k: v for k, v in (backends or {}).items() if v is not None}  # unset = the config's own
     base = Config.preset(preset)
     for m in methods or ([] if config_files else ["graphseg"]):
         if m == "graphseg":
