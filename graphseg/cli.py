@@ -111,6 +111,27 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="describe an output folder or a scene")
     i.add_argument("path")
     _common(i)
+
+    b = sub.add_parser("batch", help="run many scenes x methods x view counts (resumable; local processes or Ray)")
+    b.add_argument("scenes", nargs="*", help="scene folders, glob patterns, or a dataset root with --split / --videos")
+    b.add_argument("-o", "--out", help="batch output folder (new, or an earlier batch output to resume)")
+    b.add_argument("--split", help="GraspNet-1Billion split of a dataset root: train, test_seen, test_similar, test_novel, test")
+    b.add_argument("--videos", help="YCB-Video video ids of a dataset root, e.g. 0048,0049")
+    b.add_argument("--method", help="comma-separated methods: graphseg, graphseg-minus (default graphseg unless --config is given)")
+    b.add_argument("--config", action="append", help="config file swept as one more configuration (repeatable)")
+    b.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="preset the methods start from")
+    b.add_argument("--num-views", default="all", help="comma-separated view counts, e.g. 3,5,10 ('all' = every view)")
+    b.add_argument("--segmenter", help="segmenter name")
+    b.add_argument("--matcher", help="matcher name")
+    b.add_argument("--lifter", help="lifter name")
+    b.add_argument("--jobs", type=int, default=1, help="local worker processes (default 1)")
+    b.add_argument("--ray", action="store_true", help="run the tasks on Ray (pip install \"graphseg[ray]\")")
+    b.add_argument("--ray-address", help="existing Ray cluster: auto or ray://host:port (default: start a local Ray)")
+    b.add_argument("--ray-cpus", type=float, default=1.0, help="CPUs per Ray task")
+    b.add_argument("--ray-gpus", default="auto", help="GPUs per Ray task (auto: 1 for model backends when the cluster has GPUs)")
+    b.add_argument("--retries", type=int, default=2, help="Ray retries of a task whose worker died")
+    b.add_argument("--report", metavar="OUT", help="only rebuild the aggregate of an existing batch folder")
+    _common(b)
     return ap
 
 
@@ -478,7 +499,72 @@ def cmd_info(args: argparse.Namespace) -> int:
     return 0
 
 
-COMMANDS = {"run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_demo, "export": cmd_export, "info": cmd_info}
+def _num_views_list(text: str) -> list[int | None]:
+    out: list[int | None] = []
+    for part in text.split(","):
+        part = part.strip().lower()
+        if part == "all":
+            out.append(None)
+        elif part.isdigit() and int(part) >= 1:
+            out.append(int(part))
+        else:
+            raise BadInput(f"--num-views: expected view counts >= 1 or 'all' (got {part!r})")
+    return out
+
+
+def cmd_batch(args: argparse.Namespace) -> int:
+    from .batch import LocalExecutor, RayExecutor, rebuild_report
+
+    if args.report:
+        s = rebuild_report(args.report)
+        print(f"aggregate of {s.tasks} tasks ({s.failed} failed): {s.files['md']}")
+        return s.exit_code
+    if not args.scenes or not args.out:
+        raise BadInput("batch: give SCENES and -o OUT (or --report OUT)")
+    if args.jobs < 1:
+        raise BadInput(f"--jobs: expected >= 1 (got {args.jobs})")
+    gpus: float | str = args.ray_gpus
+    if gpus != "auto":
+        try:
+            gpus = float(gpus)
+        except ValueError as err:
+            raise BadInput(f"--ray-gpus: expected a number or auto (got {args.ray_gpus!r})") from err
+    executor: Any = LocalExecutor(args.jobs)
+    if args.ray or args.ray_address:
+        executor = RayExecutor(args.ray_address, num_cpus=args.jobs if args.jobs > 1 else None, cpus_per_task=args.ray_cpus, gpus_per_task=gpus, max_retries=args.retries)
+    methods = [m.strip() for m in args.method.split(",") if m.strip()] if args.method else None
+    try:
+        s = _run_batch(args, executor, methods)
+    except KeyboardInterrupt as err:  # Terminated too
+        print(f"graphseg: interrupted; finished outputs are kept in {args.out} (run again to resume)", file=sys.stderr)
+        return 143 if isinstance(err, Terminated) else 130
+    print(f"{s.tasks} tasks: {s.ok} finished ({s.skipped} already done), {s.failed} failed ({s.seconds:.1f} s)")
+    for r in s.records:
+        if r["status"] != "ok":
+            print(_printable(f"failed: {r['scene']} ({r['label']}, views {r['num_views'] or 'all'}): {r['error']}"))
+    print(f"aggregate: {s.files['md']}")
+    return s.exit_code
+
+
+def _run_batch(args: argparse.Namespace, executor: Any, methods: list[str] | None) -> Any:
+    from .batch import run_batch
+
+    return run_batch(
+        args.scenes,
+        args.out,
+        methods=methods,
+        config_files=args.config,
+        preset=args.preset,
+        num_views=_num_views_list(args.num_views),
+        split=args.split,
+        videos=[v.strip() for v in args.videos.split(",") if v.strip()] if args.videos else None,
+        backends={"segmenter": args.segmenter, "matcher": args.matcher, "lifter": args.lifter},
+        executor=executor,
+        progress=not _flag(args, "quiet"),
+    )
+
+
+COMMANDS = {"batch": cmd_batch, "run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_demo, "export": cmd_export, "info": cmd_info}
 
 
 @contextlib.contextmanager

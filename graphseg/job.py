@@ -307,6 +307,7 @@ def run_job(
         warnings.append(f"{len(fell)} object(s) fell off the table while the scene was made: {', '.join(map(str, fell))}")
     result.info["warnings"] = warnings
     path_out = None
+    info["timings"] = dict(timings)  # read, lift, run, evaluate (run.json); the write is timed below
     t = time.perf_counter()
     if out is not None:
         path_out = write_output(out, result, scene, metrics=metrics, run_info=info, inputs=all_inputs, overwrite=overwrite, kind=kind)

@@ -86,7 +86,7 @@ RESULT_FILE = "result.npz"
 #: Name of the marker file inside every folder graphseg writes.
 MARKER = ".graphseg-output"
 #: Kinds of output folder.
-KINDS = ("run", "synth", "demo", "export")
+KINDS = ("run", "synth", "demo", "export", "batch")
 MARKER_VERSION = 1
 _TMP = ".graphseg-tmp-"
 _OLD = ".graphseg-old-"
@@ -105,6 +105,11 @@ def read_marker(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     if not isinstance(doc, dict) or doc.get("kind") not in KINDS:
         return None
     return doc
+
+
+def write_marker(folder: str | os.PathLike[str], kind: str) -> None:
+    """Mark ``folder`` as a graphseg output of ``kind`` (for folders filled incrementally, like a batch)."""
+    _write_marker(Path(folder), kind)
 
 
 def _write_marker(folder: Path, kind: str) -> None:
