@@ -38,12 +38,12 @@ import numpy as np
 
 from ..registry import require
 from ..scene import Scene, SceneError
-from .align import umeyama
+from .align import NOMINAL_WORKING_DISTANCE, umeyama
 
 __all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "not_registered_message"]
 
 #: Median camera-to-point distance (m) a reconstruction of unknown scale is scaled to.
-NOMINAL_DISTANCE = 0.6
+NOMINAL_DISTANCE = NOMINAL_WORKING_DISTANCE  # the one documented normalisation of every lifter (align.py)
 
 
 @dataclass
