@@ -193,6 +193,15 @@ def _flag(args: argparse.Namespace, name: str) -> bool:
     return bool(getattr(args, name, False))
 
 
+def _check_backend_name(name: str) -> None:
+    """A ``--backend-option`` must name an installed backend (typos fail before any work)."""
+    from .backends.registry import features, lifters, matchers, segmenters
+
+    known = [n for reg in (segmenters, matchers, lifters, features) for n in reg.names()]
+    if name not in known:
+        raise BadInput(f"--backend-option: unknown backend {name!r}; installed backends: {', '.join(known)}")
+
+
 def parse_backend_option(text: str) -> tuple[str, str, Any]:
     """``"NAME.KEY=VALUE"`` -> ``(NAME, KEY, value)``, VALUE read as a YAML scalar.
 
@@ -245,6 +254,7 @@ def _config(args: argparse.Namespace) -> Any:
         cfg = cfg.without_3d()
     for text in getattr(args, "backend_option", None) or []:
         name, key, value = parse_backend_option(text)
+        _check_backend_name(name)
         cfg = _with_backend_options(cfg, name, **{key: value})
     if getattr(args, "method", None):
         cfg = cfg.model_copy(update={"method": args.method})
@@ -404,7 +414,6 @@ def cmd_demo(args: argparse.Namespace) -> int:
         _warn('pybullet is not installed (pip install "graphseg[sim]"); the demo uses the built-in box renderer', args)
         scene = demo_box_scene(seed=args.seed, views=args.views, objects=args.objects)
         source = "boxes"
-    _fell_off(scene, args)
     job = run_job(scene, None, Config.preset(args.preset, seed=args.seed), progress=not _flag(args, "quiet"))
     info = {"scene": str(out / "scene"), "format": "native", "views": [v.name for v in scene.views], "source": source}
     with atomic_folder(out, "demo") as tmp:
@@ -484,7 +493,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         if mj.is_file():
             try:
                 m = json.loads(mj.read_text(encoding="utf-8"))["mean"]
-                print("  mean: " + ", ".join(f"{k}={v:.4f}" for k, v in m.items() if isinstance(v, (int, float))))
+                print("  mean: " + ", ".join(f"{k}={v:.4g}" for k, v in m.items() if isinstance(v, (int, float))))
             except (ValueError, KeyError, TypeError, AttributeError) as err:
                 raise BadInput(f"{mj}: metrics.json: malformed ({type(err).__name__})") from err
         return 0
@@ -543,6 +552,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         if r["status"] != "ok":
             print(_printable(f"failed: {r['scene']} ({r['label']}, views {r['num_views'] or 'all'}): {r['error']}"))
     print(f"aggregate: {s.files['md']}")
+    if "png" not in s.files:
+        _warn("no sparse_views.png: the plot needs matplotlib (pip install \"graphseg[plot]\")", args)
     return s.exit_code
 
 

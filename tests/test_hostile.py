@@ -541,6 +541,16 @@ def config_negative_pixel_tau(ws):
 
 
 @case
+def backend_option_unknown_backend(ws):
+    return run_args(ws, "--backend-option", "nosuch.k=1"), "unknown backend 'nosuch'"
+
+
+@case
+def backend_option_unknown_key(ws):
+    return run_args(ws, "--backend-option", "geometric.bogus=3"), "unknown option 'bogus'"
+
+
+@case
 def config_stage_negative_tau(ws):
     return run_args(ws, "--config", ws.config("stages:\n  - [pixel_match]\n  - [{chamfer_3d: {tau: -1}}]\n")), "chamfer_3d: option 'tau'"
 

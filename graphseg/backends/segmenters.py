@@ -318,6 +318,13 @@ class GeometricSegmenter:
     name = "geometric"
 
     def __init__(self, seed: int | None = 0, **options: Any) -> None:
+        import inspect
+
+        params = inspect.signature(geometric_segments).parameters
+        valid = [k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k != "rng"]
+        unknown = sorted(set(options) - set(valid))
+        if unknown:  # checked here, before any image is read, not when the first view is segmented
+            raise TypeError(f"unknown option {unknown[0]!r} of the geometric segmenter; valid options: {', '.join(valid)}")
         self.seed = seed
         self.options = options
 
