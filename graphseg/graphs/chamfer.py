@@ -340,12 +340,10 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     nonempty = np.flatnonzero(sizes > 0)
     if nonempty.size < 2:
         return EdgeSet(np.zeros((2, 0), np.int64), {"criterion": np.zeros(0, "<U10"), "distance": np.zeros(0), "weight": np.zeros(0)}, {"candidates": 0})
-    node = sets.node_of_point()
-    lo = np.full((k, 3), np.inf)
-    hi = np.full((k, 3), -np.inf)
-    np.minimum.at(lo, node, sets.points)
-    np.maximum.at(hi, node, sets.points)
-    lo, hi = lo[nonempty], hi[nonempty]
+    # points are stored by node (CSR): per-node boxes are segment reductions
+    starts = sets.ptr[nonempty]
+    lo = np.minimum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
+    hi = np.maximum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
     if prune:
         cand = _candidate_pairs(lo, hi, float(np.sqrt(tau)))
     else:

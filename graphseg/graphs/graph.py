@@ -259,17 +259,27 @@ def mask_node_table(
                 cols["centroid_3d"].append(np.full((present.size, 3), np.nan))
                 cols["bbox_3d"].append(np.full((present.size, 6), np.nan))
                 continue
-            p = np.asarray(pts).reshape(-1, 3)[pix]
-            ok = np.isfinite(p).all(1)
+            pts = np.asarray(pts)
+            # contiguous per-coordinate gathers (1D takes and SIMD tests beat [P, 3] row ops);
+            # the reductions below give the same values as on the [P, 3] array
+            pc = [pts[..., k].reshape(-1)[pix] for k in range(3)]
+            ok = np.isfinite(pc[0])
+            ok &= np.isfinite(pc[1])
+            ok &= np.isfinite(pc[2])
+            all_ok = bool(ok.all())
             if present.size:
-                cnt = np.add.reduceat(ok.astype(np.int64), starts)
-                p64 = np.where(ok[:, None], p, 0).astype(np.float64)
+                cnt = area.copy() if all_ok else np.add.reduceat(ok.astype(np.int64), starts)
+                if all_ok:
+                    p64 = [c.astype(np.float64) for c in pc]
+                    pn = pc
+                else:
+                    p64 = [np.where(ok, c, 0).astype(np.float64) for c in pc]
+                    pn = [np.where(ok, c, np.nan) for c in pc]  # min/max are exact in the input dtype
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    c3 = np.add.reduceat(p64, starts, axis=0) / cnt[:, None]
-                pn = p if ok.all() else np.where(ok[:, None], p, np.nan)  # min/max are exact in the input dtype
+                    c3 = np.stack([np.add.reduceat(c, starts) for c in p64], 1) / cnt[:, None]
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    box = np.concatenate([np.fmin.reduceat(pn, starts, axis=0), np.fmax.reduceat(pn, starts, axis=0)], 1).astype(np.float64)
+                    box = np.stack([np.fmin.reduceat(c, starts) for c in pn] + [np.fmax.reduceat(c, starts) for c in pn], 1).astype(np.float64)
                 box[cnt == 0] = np.nan
                 c3[cnt == 0] = np.nan
             else:
