@@ -275,8 +275,20 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, max_gap: float) -> np.ndarr
     return np.concatenate(out, 1) if out else np.zeros((2, 0), np.int64)
 
 
-def _batched_directed(sets: PointSets, src: np.ndarray, dst: np.ndarray, tau: float) -> np.ndarray:
+def _batched_directed(
+    sets: PointSets,
+    src: np.ndarray,
+    dst: np.ndarray,
+    tau: float,
+    *,
+    centroids: np.ndarray | None = None,
+    boxes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """``D(sets[src[e]], sets[dst[e]])`` for every e, one k-d tree query per distinct ``dst``.
+
+    With per-node ``centroids`` ``[N, 3]`` and ``boxes`` (``lo``, ``hi`` ``[N, 3]``),
+    pairs whose source centroid lies farther than ``sqrt(tau)`` from the target's
+    box are dropped first (O(1) per pair).
 
     Pairs whose mean squared distance to the target's bounding box (a lower
     bound of D) exceeds ``tau`` are never queried. Queries are bounded by
@@ -284,6 +296,19 @@ def _batched_directed(sets: PointSets, src: np.ndarray, dst: np.ndarray, tau: fl
     mean exceed ``tau``, so such pairs come back as inf.
     """
     out = np.full(src.size, np.inf)
+    if src.size == 0:
+        return out
+    if centroids is not None and boxes is not None:
+        # Jensen: the squared distance to a box is convex, so its value at the source's
+        # centroid is <= its mean over the source points (the bound below) <= D. Pairs
+        # failing this pair-level test (with a rounding margin) would fail the per-point
+        # bound too; they are dropped before any per-point work.
+        c = centroids[src]
+        gap = np.maximum(0.0, np.maximum(boxes[0][dst] - c, c - boxes[1][dst]))
+        alive = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= tau * (1 + 1e-6))
+        if alive.size < src.size:
+            out[alive] = _batched_directed(sets, src[alive], dst[alive], tau)
+            return out
     order = np.argsort(dst, kind="stable")
     bounds = np.flatnonzero(np.r_[True, dst[order][1:] != dst[order][:-1], True])
     for a, b in zip(bounds[:-1], bounds[1:]):
@@ -340,10 +365,14 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     nonempty = np.flatnonzero(sizes > 0)
     if nonempty.size < 2:
         return EdgeSet(np.zeros((2, 0), np.int64), {"criterion": np.zeros(0, "<U10"), "distance": np.zeros(0), "weight": np.zeros(0)}, {"candidates": 0})
-    # points are stored by node (CSR): per-node boxes are segment reductions
+    # points are stored by node (CSR): per-node boxes and centroids are segment reductions
     starts = sets.ptr[nonempty]
     lo = np.minimum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
     hi = np.maximum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
+    boxes = (np.full((k, 3), np.inf), np.full((k, 3), -np.inf))
+    boxes[0][nonempty], boxes[1][nonempty] = lo, hi
+    centroids = np.zeros((k, 3))
+    centroids[nonempty] = np.add.reduceat(sets.points, starts, axis=0) / sizes[nonempty, None]
     if prune:
         cand = _candidate_pairs(lo, hi, float(np.sqrt(tau)))
     else:
@@ -357,10 +386,11 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
         # D(small -> big) for every candidate, batched: one tree query per target node
         small = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[0], cand[1])
         big = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[1], cand[0])
-        d = _batched_directed(sets, small, big, tau)
+        pre = {"centroids": centroids, "boxes": boxes}
+        d = _batched_directed(sets, small, big, tau, **pre)
         retry = d > tau
         if retry.any():  # the other direction only where the first failed
-            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau))
+            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau, **pre))
         ok = d <= tau
         us, vs, dist = cand[0][ok], cand[1][ok], d[ok]
     dist = np.asarray(dist, np.float64)
