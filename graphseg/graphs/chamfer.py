@@ -127,17 +127,19 @@ def node_point_sets(
         # one contiguous column per coordinate: 1D gathers and SIMD finiteness tests are
         # several times faster than row gathers of [P, 3] and all(axis=1)
         c3 = [q[..., k].reshape(-1)[idx] for k in range(3)]
-        ok = np.isfinite(c3[0])
-        ok &= np.isfinite(c3[1])
-        ok &= np.isfinite(c3[2])
-        if not ok.all():
-            idx = idx[ok]
-            c3 = [c[ok] for c in c3]
+        if not np.isfinite(q).all():  # one flat pass; the per-pixel test only when needed
+            ok = np.isfinite(c3[0])
+            ok &= np.isfinite(c3[1])
+            ok &= np.isfinite(c3[2])
+            if not ok.all():
+                idx = idx[ok]
+                c3 = [c[ok] for c in c3]
         nodes.append(lab_s[idx].astype(np.int64))
         for k in range(3):
             xyz[k].append(c3[k].astype(np.float32, copy=False))
         if colors is not None:
-            cols.append(np.asarray(colors[v])[::stride, ::stride].reshape(-1, 3)[idx])
+            cq = np.asarray(colors[v])[::stride, ::stride]
+            cols.append(np.stack([cq[..., k].reshape(-1)[idx] for k in range(3)], 1))
     if not nodes:
         return PointSets(np.zeros((0, 3)), np.zeros(num_nodes + 1, np.int64), np.zeros((0, 3), np.uint8) if colors is not None else None)
     node = np.concatenate(nodes)
@@ -151,8 +153,7 @@ def node_point_sets(
         cnt = grouped.counts.astype(np.float64)
         P = np.stack([np.bincount(grp, weights=c, minlength=g) for c in X], 1) / cnt[:, None]
         if C is not None:
-            Cf = C.astype(np.float64)
-            C = np.rint(np.stack([np.bincount(grp, weights=Cf[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
+            C = np.rint(np.stack([np.bincount(grp, weights=C[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
         node = node[grouped.first]
     else:
         order = _argsort_keys(node, True)

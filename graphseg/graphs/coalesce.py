@@ -120,7 +120,8 @@ def _argsort_keys(k: np.ndarray, stable: bool) -> np.ndarray:
     if hi < 1 << 16:
         return np.argsort(k.astype(np.uint16), kind="stable")
     first = np.argsort((k & 0xFFFF).astype(np.uint16), kind="stable")
-    second = np.argsort((k[first] >> 16).astype(np.uint16), kind="stable")
+    high = k[first] >> 16
+    second = np.argsort(high.astype(np.uint8 if hi < 1 << 24 else np.uint16), kind="stable")
     return first[second]
 
 
