@@ -227,7 +227,7 @@ def mask_node_table(
         lab = np.asarray(lab)
         h, w = lab.shape
         flat = lab.reshape(-1)
-        if flat.size and 0 <= flat.min() and flat.max() < 2**16:
+        if flat.size and flat.dtype.kind in "iu" and 0 <= flat.min() and flat.max() < 2**16:
             # counts by bincount, then one stable radix sort of the whole image by label:
             # the unlabelled pixels come first, then each mask's pixels in raster order
             cnt = np.bincount(flat)
