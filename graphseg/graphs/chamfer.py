@@ -29,7 +29,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
-from .coalesce import combine_keys, group_by_key
+from .coalesce import _argsort_keys, combine_keys, group_by_key
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
@@ -114,41 +114,51 @@ def node_point_sets(
     >>> ps.ptr.tolist(), ps[0].shape
     ([0, 1, 2], (1, 3))
     """
-    nodes, pts, cols = [], [], []
+    nodes: list[np.ndarray] = []
+    xyz: list[list[np.ndarray]] = [[], [], []]
+    cols: list[np.ndarray] = []
     for v, lab in enumerate(node_labels):  # loop over views only
         p = points[v]
         if p is None:
             continue
         lab_s = np.asarray(lab)[::stride, ::stride].reshape(-1)
-        p_s = np.asarray(p)[::stride, ::stride].reshape(-1, 3)
-        sel = lab_s >= 0
-        idx = np.flatnonzero(sel)
-        pp = p_s[idx]
-        ok = np.isfinite(pp).all(1)
-        idx, pp = idx[ok], pp[ok]
+        idx = np.flatnonzero(lab_s >= 0)
+        q = np.asarray(p)[::stride, ::stride]
+        # one contiguous column per coordinate: 1D gathers and SIMD finiteness tests are
+        # several times faster than row gathers of [P, 3] and all(axis=1)
+        c3 = [q[..., k].reshape(-1)[idx] for k in range(3)]
+        if not np.isfinite(q).all():  # one flat pass; the per-pixel test only when needed
+            ok = np.isfinite(c3[0])
+            ok &= np.isfinite(c3[1])
+            ok &= np.isfinite(c3[2])
+            if not ok.all():
+                idx = idx[ok]
+                c3 = [c[ok] for c in c3]
         nodes.append(lab_s[idx].astype(np.int64))
-        pts.append(pp.astype(np.float32))
+        for k in range(3):
+            xyz[k].append(c3[k].astype(np.float32, copy=False))
         if colors is not None:
-            cols.append(np.asarray(colors[v])[::stride, ::stride].reshape(-1, 3)[idx])
+            cq = np.asarray(colors[v])[::stride, ::stride]
+            cols.append(np.stack([cq[..., k].reshape(-1)[idx] for k in range(3)], 1))
     if not nodes:
         return PointSets(np.zeros((0, 3)), np.zeros(num_nodes + 1, np.int64), np.zeros((0, 3), np.uint8) if colors is not None else None)
     node = np.concatenate(nodes)
-    P = np.concatenate(pts)  # float32 while sorting; means come out float64
+    X = [np.concatenate(c) for c in xyz]  # float32 columns while grouping; means come out float64
     C = np.concatenate(cols) if colors is not None else None
     if voxel_size is not None and voxel_size > 0 and node.size:
-        ijk = np.floor((P - P.min(0)) / voxel_size).astype(np.int64)
-        ext = ijk.max(0) + 1
-        grouped = group_by_key(combine_keys([node, ijk[:, 0], ijk[:, 1], ijk[:, 2]], [num_nodes, *ext.tolist()]), stable=False)
+        ijk = [np.floor((c - c.min()) / voxel_size).astype(np.int64) for c in X]
+        ext = [int(c.max()) + 1 for c in ijk]
+        grouped = group_by_key(combine_keys([node, *ijk], [num_nodes, *ext]), stable=False)
         grp, g = grouped.groups, grouped.num_groups  # groups ordered by (node, voxel)
         cnt = grouped.counts.astype(np.float64)
-        P = np.stack([np.bincount(grp, weights=P[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]
+        P = np.stack([np.bincount(grp, weights=c, minlength=g) for c in X], 1) / cnt[:, None]
         if C is not None:
-            Cf = C.astype(np.float64)
-            C = np.rint(np.stack([np.bincount(grp, weights=Cf[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
+            C = np.rint(np.stack([np.bincount(grp, weights=C[:, k], minlength=g) for k in range(3)], 1) / cnt[:, None]).astype(np.uint8)
         node = node[grouped.first]
     else:
-        order = np.argsort(node, kind="stable")
-        node, P = node[order], P[order].astype(np.float64)
+        order = _argsort_keys(node, True)
+        node = node[order]
+        P = np.stack([c[order] for c in X], 1).astype(np.float64)
         C = None if C is None else C[order]
     ptr = np.zeros(num_nodes + 1, np.int64)
     ptr[1:] = np.cumsum(np.bincount(node, minlength=num_nodes))
@@ -266,8 +276,20 @@ def _candidate_pairs(lo: np.ndarray, hi: np.ndarray, max_gap: float) -> np.ndarr
     return np.concatenate(out, 1) if out else np.zeros((2, 0), np.int64)
 
 
-def _batched_directed(sets: PointSets, src: np.ndarray, dst: np.ndarray, tau: float) -> np.ndarray:
+def _batched_directed(
+    sets: PointSets,
+    src: np.ndarray,
+    dst: np.ndarray,
+    tau: float,
+    *,
+    centroids: np.ndarray | None = None,
+    boxes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """``D(sets[src[e]], sets[dst[e]])`` for every e, one k-d tree query per distinct ``dst``.
+
+    With per-node ``centroids`` ``[N, 3]`` and ``boxes`` (``lo``, ``hi`` ``[N, 3]``),
+    pairs whose source centroid lies farther than ``sqrt(tau)`` from the target's
+    box are dropped first (O(1) per pair).
 
     Pairs whose mean squared distance to the target's bounding box (a lower
     bound of D) exceeds ``tau`` are never queried. Queries are bounded by
@@ -275,6 +297,19 @@ def _batched_directed(sets: PointSets, src: np.ndarray, dst: np.ndarray, tau: fl
     mean exceed ``tau``, so such pairs come back as inf.
     """
     out = np.full(src.size, np.inf)
+    if src.size == 0:
+        return out
+    if centroids is not None and boxes is not None:
+        # Jensen: the squared distance to a box is convex, so its value at the source's
+        # centroid is <= its mean over the source points (the bound below) <= D. Pairs
+        # failing this pair-level test (with a rounding margin) would fail the per-point
+        # bound too; they are dropped before any per-point work.
+        c = centroids[src]
+        gap = np.maximum(0.0, np.maximum(boxes[0][dst] - c, c - boxes[1][dst]))
+        alive = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= tau * (1 + 1e-6))
+        if alive.size < src.size:
+            out[alive] = _batched_directed(sets, src[alive], dst[alive], tau)
+            return out
     order = np.argsort(dst, kind="stable")
     bounds = np.flatnonzero(np.r_[True, dst[order][1:] != dst[order][:-1], True])
     for a, b in zip(bounds[:-1], bounds[1:]):
@@ -331,12 +366,14 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     nonempty = np.flatnonzero(sizes > 0)
     if nonempty.size < 2:
         return EdgeSet(np.zeros((2, 0), np.int64), {"criterion": np.zeros(0, "<U10"), "distance": np.zeros(0), "weight": np.zeros(0)}, {"candidates": 0})
-    node = sets.node_of_point()
-    lo = np.full((k, 3), np.inf)
-    hi = np.full((k, 3), -np.inf)
-    np.minimum.at(lo, node, sets.points)
-    np.maximum.at(hi, node, sets.points)
-    lo, hi = lo[nonempty], hi[nonempty]
+    # points are stored by node (CSR): per-node boxes and centroids are segment reductions
+    starts = sets.ptr[nonempty]
+    lo = np.minimum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
+    hi = np.maximum.reduceat(sets.points, starts, axis=0).astype(np.float64, copy=False)
+    boxes = (np.full((k, 3), np.inf), np.full((k, 3), -np.inf))
+    boxes[0][nonempty], boxes[1][nonempty] = lo, hi
+    centroids = np.zeros((k, 3))
+    centroids[nonempty] = np.add.reduceat(sets.points, starts, axis=0) / sizes[nonempty, None]
     if prune:
         cand = _candidate_pairs(lo, hi, float(np.sqrt(tau)))
     else:
@@ -350,10 +387,11 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
         # D(small -> big) for every candidate, batched: one tree query per target node
         small = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[0], cand[1])
         big = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[1], cand[0])
-        d = _batched_directed(sets, small, big, tau)
+        pre = {"centroids": centroids, "boxes": boxes}
+        d = _batched_directed(sets, small, big, tau, **pre)
         retry = d > tau
         if retry.any():  # the other direction only where the first failed
-            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau))
+            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau, **pre))
         ok = d <= tau
         us, vs, dist = cand[0][ok], cand[1][ok], d[ok]
     dist = np.asarray(dist, np.float64)

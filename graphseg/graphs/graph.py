@@ -208,8 +208,8 @@ def mask_node_table(
 
     Notes
     -----
-    One stable (radix) sort of the mask pixels by id per view, then ``reduceat``
-    segment reductions: O(H W) per view, no scatter.
+    One ``bincount`` and one stable (radix) sort of the pixels by label per view,
+    then ``reduceat`` segment reductions: O(H W) per view, no scatter.
 
     Examples
     --------
@@ -227,16 +227,27 @@ def mask_node_table(
         lab = np.asarray(lab)
         h, w = lab.shape
         flat = lab.reshape(-1)
-        nz = np.flatnonzero(flat)
-        ids = flat[nz].astype(np.int64) - 1
-        # one stable sort by mask id (radix sort for small ids); pixels stay in raster order per mask
-        order = np.argsort(ids.astype(np.uint16) if ids.size and ids.max() < 2**16 else ids, kind="stable")
-        sid = ids[order]
-        starts = np.flatnonzero(np.r_[True, sid[1:] != sid[:-1]]) if sid.size else np.zeros(0, np.int64)
-        ends = np.r_[starts[1:], sid.size]
-        present = sid[starts] if sid.size else np.zeros(0, np.int64)
-        area = ends - starts
-        pix = nz[order]
+        if flat.size and flat.dtype.kind in "iu" and 0 <= flat.min() and flat.max() < 2**16:
+            # counts by bincount, then one stable radix sort of the whole image by label:
+            # the unlabelled pixels come first, then each mask's pixels in raster order
+            cnt = np.bincount(flat)
+            present = np.flatnonzero(cnt[1:])
+            area = cnt[1:][present]
+            starts = np.zeros(present.size, np.int64)
+            starts[1:] = np.cumsum(area)[:-1]
+            ends = starts + area
+            pix = np.argsort(flat.astype(np.uint16), kind="stable")[int(cnt[0]) :]
+        else:
+            nz = np.flatnonzero(flat)
+            ids = flat[nz].astype(np.int64) - 1
+            # one stable sort by mask id; pixels stay in raster order per mask
+            order = np.argsort(ids, kind="stable")
+            sid = ids[order]
+            starts = np.flatnonzero(np.r_[True, sid[1:] != sid[:-1]]) if sid.size else np.zeros(0, np.int64)
+            ends = np.r_[starts[1:], sid.size]
+            present = sid[starts] if sid.size else np.zeros(0, np.int64)
+            area = ends - starts
+            pix = nz[order]
         ys, xs = np.divmod(pix, w)
         if present.size:
             x0 = np.minimum.reduceat(xs, starts)
@@ -259,17 +270,29 @@ def mask_node_table(
                 cols["centroid_3d"].append(np.full((present.size, 3), np.nan))
                 cols["bbox_3d"].append(np.full((present.size, 6), np.nan))
                 continue
-            p = np.asarray(pts).reshape(-1, 3)[pix]
-            ok = np.isfinite(p).all(1)
+            pts = np.asarray(pts)
+            # contiguous per-coordinate gathers (1D takes and SIMD tests beat [P, 3] row ops);
+            # the reductions below give the same values as on the [P, 3] array
+            pc = [pts[..., k].reshape(-1)[pix] for k in range(3)]
+            all_ok = bool(np.isfinite(pts).all())  # one flat SIMD pass; per pixel only when needed
+            if not all_ok:
+                ok = np.isfinite(pc[0])
+                ok &= np.isfinite(pc[1])
+                ok &= np.isfinite(pc[2])
+                all_ok = bool(ok.all())
             if present.size:
-                cnt = np.add.reduceat(ok.astype(np.int64), starts)
-                p64 = np.where(ok[:, None], p, 0).astype(np.float64)
+                cnt = area.copy() if all_ok else np.add.reduceat(ok.astype(np.int64), starts)
+                if all_ok:
+                    p64 = [c.astype(np.float64) for c in pc]
+                    pn = pc
+                else:
+                    p64 = [np.where(ok, c, 0).astype(np.float64) for c in pc]
+                    pn = [np.where(ok, c, np.nan) for c in pc]  # min/max are exact in the input dtype
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    c3 = np.add.reduceat(p64, starts, axis=0) / cnt[:, None]
-                pn = p if ok.all() else np.where(ok[:, None], p, np.nan)  # min/max are exact in the input dtype
+                    c3 = np.stack([np.add.reduceat(c, starts) for c in p64], 1) / cnt[:, None]
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", RuntimeWarning)
-                    box = np.concatenate([np.fmin.reduceat(pn, starts, axis=0), np.fmax.reduceat(pn, starts, axis=0)], 1).astype(np.float64)
+                    box = np.stack([np.fmin.reduceat(c, starts) for c in pn] + [np.fmax.reduceat(c, starts) for c in pn], 1).astype(np.float64)
                 box[cnt == 0] = np.nan
                 c3[cnt == 0] = np.nan
             else:

@@ -64,13 +64,17 @@ def compose_masks(
     O(K H W) for K boolean masks; O(H W) for a label image.
     """
     arr = masks if isinstance(masks, np.ndarray) else None
+    fresh = True  # whether ``labels`` is a new array (not the caller's)
+    bg_any = background is not None and bool(np.any(background))
     if arr is not None and arr.ndim == 2 and arr.dtype.kind in "iu":
-        lab_in = arr.astype(np.int64)
+        # bincount / indexing take int32 and int64 as they are; other int types are widened
+        lab_in = arr if arr.dtype in (np.dtype(np.int32), np.dtype(np.int64)) else arr.astype(np.int64)
+        fresh = lab_in is not arr
         if lab_in.min() < 0:
             raise ValueError(f"expected label image values >= 0 (got {int(lab_in.min())})")
         k = int(lab_in.max())
         area = np.bincount(lab_in.ravel(), minlength=k + 1)[1:]
-        if background is not None:
+        if bg_any:
             bg_hits = np.bincount(lab_in[background].ravel(), minlength=k + 1)[1:]
         else:
             bg_hits = np.zeros(k, np.int64)
@@ -79,9 +83,14 @@ def compose_masks(
             frac = bg_hits / np.maximum(area, 1)
         hit = (frac[present] >= max_overlap) & (bg_hits[present] > 0)
         drop_bg = present[hit] if background is not None else np.zeros(0, np.int64)
-        lut = np.arange(k + 1, dtype=np.int32)
-        lut[drop_bg + 1] = 0
-        labels = lut[lab_in]
+        if drop_bg.size:
+            lut = np.arange(k + 1, dtype=np.int32)
+            lut[drop_bg + 1] = 0
+            labels = lut[lab_in]
+            fresh = True
+        else:  # nothing dropped: the labels are the input's (copied once, at the end)
+            labels = lab_in
+            vis_known = area
         num_input = int(present.size)
         shape = lab_in.shape
     else:
@@ -107,19 +116,26 @@ def compose_masks(
         for i in order:
             if i not in dropped and area[i]:
                 labels[stack[i]] = i + 1
-    if background is not None:
+    if bg_any:  # an all-False background clears nothing
         labels = np.where(background, 0, labels).astype(np.int32)
-    vis = np.bincount(labels.ravel(), minlength=1)[1:]
+        fresh = True
+    if not fresh and labels.size:
+        vis = vis_known  # labels untouched since the areas were counted
+    else:
+        vis = np.bincount(labels.ravel(), minlength=1)[1:]
     small = np.flatnonzero((vis > 0) & (vis < min_area))
     if small.size:
         lut = np.arange(vis.size + 1, dtype=np.int32)
         lut[small + 1] = 0
         labels = lut[labels]
-    kept = np.flatnonzero(np.bincount(labels.ravel(), minlength=1)[1:] > 0)
+        fresh = True
+        kept = np.flatnonzero(np.bincount(labels.ravel(), minlength=1)[1:] > 0)
+    else:
+        kept = np.flatnonzero(vis > 0)
     info = {
         "num_input": num_input,
         "dropped_background": drop_bg.tolist(),
         "dropped_small": small.tolist(),
         "kept": kept.tolist(),
     }
-    return labels.astype(np.int32), info
+    return labels.astype(np.int32, copy=not fresh), info  # never the caller's array

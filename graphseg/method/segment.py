@@ -91,9 +91,10 @@ def _validate_masks(scene: Scene, masks: MasksLike) -> list[Any]:
 def _finite_points(points: np.ndarray) -> np.ndarray:
     """``points`` with every pixel that has a non-finite coordinate set to NaN (a copy only if needed)."""
     p = np.asarray(points)
-    bad = ~np.isfinite(p).all(axis=-1)
-    if not bad.any():
+    fin = np.isfinite(p)
+    if fin.all():  # common case: one SIMD pass over the flat array, no per-pixel reduction
         return p
+    bad = ~(fin[..., 0] & fin[..., 1] & fin[..., 2])
     p = p.astype(np.float32, copy=True)
     p[bad] = np.nan
     return p

@@ -58,3 +58,17 @@ def test_coalesce_matches_a_python_set(pairs):
     want = sorted({(min(u, v), max(u, v)) for u, v in pairs if u != v})
     assert list(map(tuple, out_ei.T.tolist())) == want
     assert int(out["multiplicity"].sum()) == sum(u != v for u, v in pairs)
+
+
+@pytest.mark.parametrize("high", [1, 300, 1 << 16, 1 << 24, (1 << 24) + 3, 1 << 32, 1 << 40])
+def test_group_by_key_radix_paths_equal_stable_sort(high):
+    # keys below 2**32 take the radix path; every path must give the stable-sort grouping
+    from graphseg.graphs.coalesce import _argsort_keys
+
+    k = np.random.default_rng(high % 97).integers(0, high, 5000)
+    assert np.array_equal(_argsort_keys(k, True), np.argsort(k, kind="stable"))
+    g = group_by_key(k)
+    keys, first, inv, counts = np.unique(k, return_index=True, return_inverse=True, return_counts=True)
+    assert g.keys.tolist() == keys.tolist() and g.first.tolist() == first.tolist()
+    assert g.groups.tolist() == inv.tolist() and g.counts.tolist() == counts.tolist()
+    assert _argsort_keys(np.zeros(0, np.int64), True).shape == (0,)

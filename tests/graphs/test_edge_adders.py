@@ -213,3 +213,34 @@ def test_pixel_match_adder_class():
     m = {(0, 1): Matches([[0, 0]], [[0, 0]], [1.0])}
     es = PixelMatch(tau=0.01, min_matches=1)(g, Evidence(labels, matches=m))
     assert es.edge_index.T.tolist() == [[0, 2]]
+
+
+def test_node_point_sets_drops_nonfinite_and_keeps_dtype_rules():
+    lab = np.array([[0, 0, 1, 1]])
+    pts = np.array([[[0, 0, 0], [np.inf, 0, 0], [1, np.nan, 1], [1, 1, 1]]], np.float64)
+    ps = node_point_sets([lab], [pts], 2)
+    assert ps.ptr.tolist() == [0, 1, 2] and ps.points.dtype == np.float64
+    assert ps.points.tolist() == [[0, 0, 0], [1, 1, 1]]
+    # float64 and float32 input give the same sets (points are gathered as float32)
+    ref = node_point_sets([lab], [pts.astype(np.float32)], 2, voxel_size=0.5)
+    got = node_point_sets([lab], [pts], 2, voxel_size=0.5)
+    assert np.array_equal(ref.points, got.points) and np.array_equal(ref.ptr, got.ptr)
+
+
+def test_batched_directed_centroid_prefilter_is_exact():
+    # the centroid-to-box bound only drops pairs the per-point bound would drop
+    from graphseg.graphs.chamfer import PointSets, _batched_directed
+
+    rng = np.random.default_rng(3)
+    objs = [grid_object(rng.uniform(0, 0.08, 3), n=4) for _ in range(30)]
+    sets = PointSets(np.concatenate(objs), np.r_[0, np.cumsum([len(o) for o in objs])])
+    src, dst = np.triu_indices(30, 1)
+    lo = np.stack([o.min(0) for o in objs])
+    hi = np.stack([o.max(0) for o in objs])
+    cen = np.stack([o.mean(0) for o in objs])
+    for tau in (1e-5, 5e-4, 1e-3):
+        plain = _batched_directed(sets, src, dst, tau)
+        fast = _batched_directed(sets, src, dst, tau, centroids=cen, boxes=(lo, hi))
+        assert np.array_equal(plain <= tau, fast <= tau)
+        assert np.array_equal(plain[plain <= tau], fast[fast <= tau])
+    assert _batched_directed(sets, src[:0], dst[:0], 5e-4, centroids=cen, boxes=(lo, hi)).shape == (0,)

@@ -141,3 +141,17 @@ def test_contract_method_uses_registry():
     a = g.contract("star", rng=0)
     b = g.contract("union_find")
     assert np.array_equal(a, b)
+
+
+def test_mask_node_table_nonfinite_points_and_large_labels():
+    lab = np.array([[1, 1, 0], [70000, 70000, 2]])  # a label >= 2**16 takes the sorting path
+    pts = np.zeros((2, 3, 3), np.float32)
+    pts[0, 1] = [np.nan, 0, 0]
+    pts[1, 0] = [2, 2, 2]
+    t = mask_node_table([lab], [pts])
+    assert t["mask_id"].tolist() == [0, 1, 69999] and t["area"].tolist() == [2, 1, 2]
+    assert t["num_points"].tolist() == [1, 1, 2]
+    assert t["centroid_3d"].tolist()[2] == [1, 1, 1] and t["bbox_3d"].tolist()[2] == [0, 0, 0, 2, 2, 2]
+    small = mask_node_table([np.where(lab == 70000, 3, lab)], [pts])  # same masks, radix path
+    for k in ("area", "bbox", "centroid", "num_points", "centroid_3d", "bbox_3d"):
+        assert np.array_equal(small[k], t[k])

@@ -68,3 +68,14 @@ def test_zero_overlap_threshold_drops_only_masks_touching_background():
     assert info["dropped_background"] == [0] and info["kept"] == [1]
     lab, info = compose_masks(np.array([[1, 1], [2, 2]]), background=np.zeros((2, 2), bool), max_overlap=0.0)
     assert info["kept"] == [0, 1]
+
+
+def test_label_image_input_is_never_returned_or_mutated():
+    lab = np.array([[1, 1, 0], [2, 2, 2]], np.int32)
+    keep = lab.copy()
+    out, info = compose_masks(lab, background=np.zeros((2, 3), bool))
+    assert out is not lab and not np.shares_memory(out, lab) and out.dtype == np.int32
+    out[:] = 9
+    assert np.array_equal(lab, keep) and info["kept"] == [0, 1]
+    out, _ = compose_masks(lab.astype(np.uint8))
+    assert out.tolist() == keep.tolist() and out.dtype == np.int32
