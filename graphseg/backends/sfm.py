@@ -78,7 +78,7 @@ class SfmReconstruction:
     def transformed(self, s: float, R: np.ndarray, t: np.ndarray) -> SfmReconstruction:
         """The reconstruction moved by the similarity ``x -> s R x + t`` (a new object)."""
         R = np.asarray(R, np.float64)
-        poses = []
+        poses: list[np.ndarray | None] = []
         for T in self.cam_to_world:
             if T is None:
                 poses.append(None)
@@ -402,10 +402,11 @@ class SfmLifter:
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
         """SfM plus scale; raises :class:`SceneError` when a view does not register."""
         n = len(scene)
-        Ks = [v.K for v in scene.views]
+        given = [v.K for v in scene.views]
+        Ks = [np.asarray(k) for k in given if k is not None]
         rec = run_sfm(
             [v.rgb for v in scene.views],
-            Ks if all(k is not None for k in Ks) else None,
+            Ks if len(Ks) == len(given) else None,
             peak_threshold=self.peak_threshold,
             min_tri_angle=self.min_tri_angle,
             num_threads=self.num_threads,
@@ -425,9 +426,9 @@ class SfmLifter:
         from .stereo import sparse_point_maps, stereo_depths
 
         rgb = [v.rgb for v in scene.views]
-        Ks = [np.asarray(k) for k in rec.K]  # type: ignore[arg-type]
-        poses = [np.asarray(T) for T in rec.cam_to_world]  # type: ignore[arg-type]
-        dists = [np.asarray(d) for d in rec.dist]  # type: ignore[arg-type]
+        Ks = [np.asarray(k) for k in rec.K]
+        poses = [np.asarray(T) for T in rec.cam_to_world]
+        dists = [np.asarray(d) for d in rec.dist]
         h, w = scene.views[0].shape
         if self.stereo:
             ranges = _depth_ranges(rec)

@@ -44,7 +44,7 @@ def _sgbm(left: np.ndarray, right: np.ndarray, min_disp: int, num_disp: int, blo
     import cv2
 
     cn = left.shape[2] if left.ndim == 3 else 1
-    m = cv2.StereoSGBM_create(
+    m = cv2.StereoSGBM_create(  # type: ignore[attr-defined]
         minDisparity=min_disp,
         numDisparities=num_disp,
         blockSize=block,

@@ -269,8 +269,8 @@ def make_tasks(
     root = Path(out)
     names: dict[str, int] = {}
     for s in scenes:
-        n = _safe(Path(s.path).name)
-        names[n] = names.get(n, 0) + 1
+        stem = _safe(Path(s.path).name)
+        names[stem] = names.get(stem, 0) + 1
     tasks = []
     for s in scenes:
         sd = scene_digest(s.path)

@@ -387,11 +387,10 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
         # D(small -> big) for every candidate, batched: one tree query per target node
         small = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[0], cand[1])
         big = np.where(sizes[cand[0]] <= sizes[cand[1]], cand[1], cand[0])
-        pre = {"centroids": centroids, "boxes": boxes}
-        d = _batched_directed(sets, small, big, tau, **pre)
+        d = _batched_directed(sets, small, big, tau, centroids=centroids, boxes=boxes)
         retry = d > tau
         if retry.any():  # the other direction only where the first failed
-            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau, **pre))
+            d[retry] = np.minimum(d[retry], _batched_directed(sets, big[retry], small[retry], tau, centroids=centroids, boxes=boxes))
         ok = d <= tau
         us, vs, dist = cand[0][ok], cand[1][ok], d[ok]
     dist = np.asarray(dist, np.float64)

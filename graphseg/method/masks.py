@@ -116,7 +116,7 @@ def compose_masks(
         for i in order:
             if i not in dropped and area[i]:
                 labels[stack[i]] = i + 1
-    if bg_any:  # an all-False background clears nothing
+    if bg_any and background is not None:  # an all-False background clears nothing
         labels = np.where(background, 0, labels).astype(np.int32)
         fresh = True
     if not fresh and labels.size:

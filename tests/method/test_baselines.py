@@ -3,10 +3,10 @@ from pydantic import ValidationError
 
 from graphseg.config import Config
 from graphseg.method.baselines import maskclustering, run_method, sam3d
-
-METHODS = ("graphseg", "graphseg-minus", "maskclustering", "sam3d")
 from graphseg.result import Result
 from graphseg.testing.scenes import two_boxes_scene
+
+METHODS = ("graphseg", "graphseg-minus", "maskclustering", "sam3d")
 
 
 @pytest.mark.parametrize("method", sorted(METHODS))
