@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 from .pixel_match import lookup_pixels
@@ -176,7 +177,7 @@ def view_consensus_edges(
     )
 
 
-class ViewConsensus:
+class ViewConsensus(Criterion):
     """The ``view_consensus`` criterion: :func:`view_consensus_edges` as an edge adder.
 
     Examples
@@ -202,8 +203,6 @@ class ViewConsensus:
         attract: bool = True
         repel_below: float | None = Field(None, ge=0, le=1)
 
-    def __init__(self, options: Any = None, **kwargs: Any) -> None:
-        self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         return view_consensus_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())

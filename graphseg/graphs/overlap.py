@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 from .pixel_match import lookup_pixels, pair_counts
@@ -87,7 +88,7 @@ def bidirectional_overlap_edges(
     return EdgeSet(np.stack([u, v]).reshape(2, -1), {"criterion": np.full(keys.size, "bidirectional_overlap"), "weight": w, "count": c}, info={"threshold": threshold})
 
 
-class BidirectionalOverlap:
+class BidirectionalOverlap(Criterion):
     """The ``bidirectional_overlap`` criterion (SAM3D-style merging).
 
     Examples
@@ -106,8 +107,6 @@ class BidirectionalOverlap:
         threshold: float = Field(0.5, ge=0, le=1)
         min_matches: int = Field(5, ge=1)
 
-    def __init__(self, options: Any = None, **kwargs: Any) -> None:
-        self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         return bidirectional_overlap_edges(evidence.node_labels, evidence.matches, graph.num_nodes, **self.options.model_dump())

@@ -21,12 +21,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from ..geometry import point_normals
+from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
@@ -197,7 +197,7 @@ def _pairs_of(nodes: np.ndarray, num_nodes: int) -> np.ndarray:
     return nodes[a] * max(num_nodes, 1) + nodes[b]
 
 
-class DepthRepulsion:
+class DepthRepulsion(Criterion):
     """The ``depth_repulsion`` criterion: :func:`depth_jump_cannot_links` as an edge adder.
 
     Examples
@@ -223,8 +223,6 @@ class DepthRepulsion:
         concave: float | None = Field(None, gt=0)
         normal_step: int = Field(3, ge=1)
 
-    def __init__(self, options: Any = None, **kwargs: Any) -> None:
-        self.options = options if isinstance(options, self.Options) else self.Options(**(options or {}), **kwargs)
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         if evidence.points is None:
