@@ -256,6 +256,32 @@ def _umask() -> int:
 
 
 @contextlib.contextmanager
+def _marked_tmp(dest: Path, kind: str) -> Iterator[Path]:
+    """A marked temporary sibling folder of ``dest`` for the body to fill.
+
+    It is removed afterwards if it still exists (the body may have renamed it
+    into place); if the body fails, the parent folders made for it go too.
+    """
+    created = _make_parents(dest)
+    clean_stale(dest)
+    ok = False
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
+    except BaseException:
+        _remove_empty(created)
+        raise
+    try:
+        _write_marker(tmp, kind)
+        yield tmp
+        ok = True
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+        if not ok:
+            _remove_empty(created)
+
+
+@contextlib.contextmanager
 def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
     """Build a folder in a temporary sibling and rename it to ``out`` on success.
 
@@ -266,17 +292,8 @@ def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
     are removed, and ``out`` is unchanged.
     """
     dest = Path(os.path.abspath(out))
-    created = _make_parents(dest)
-    clean_stale(dest)
-    ok = False
-    try:
-        tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
-    except BaseException:
-        _remove_empty(created)
-        raise
-    try:
+    with _marked_tmp(dest, kind) as tmp:
         os.chmod(tmp, 0o777 & ~_umask())
-        _write_marker(tmp, kind)
         yield tmp
         if dest.exists():
             old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_OLD}{os.getpid()}-", dir=dest.parent))
@@ -286,12 +303,6 @@ def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, dest)
-        ok = True
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-        if not ok:
-            _remove_empty(created)
 
 
 @contextlib.contextmanager
@@ -303,26 +314,12 @@ def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
     after a killed run, like the folders of :func:`atomic_folder`.
     """
     dest = Path(os.path.abspath(path))
-    created = _make_parents(dest)
-    clean_stale(dest)
-    ok = False
-    try:
-        box = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP}{os.getpid()}-", dir=dest.parent))
-    except BaseException:
-        _remove_empty(created)
-        raise
-    try:
-        _write_marker(box, "export")
+    with _marked_tmp(dest, "export") as box:
         tmp = box / dest.name
         yield tmp
         if tmp.exists():
             os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, dest)
-        ok = True
-    finally:
-        shutil.rmtree(box, ignore_errors=True)
-        if not ok:
-            _remove_empty(created)
 
 
 # ----------------------------------------------------------------------------- writing
