@@ -12,7 +12,10 @@ Scenes (one configuration for all; no per-scene tuning)
 Variants (rows): GraphSeg [rgbd] (components contraction: the paper's
 method and the reference), GraphSeg-minus, and each robust component switched
 on: ``depth_repulsion`` cannot-links (depth jumps; + concave creases) with the
-constrained union-find, ``core_attach`` (small masks follow one edge),
+constrained union-find; concave creases with jumps only above 10 cm;
+``smooth_adjacency`` (parts that meet along a smooth, convex boundary that is
+no colour edge) in the 3D stage; both together (the ``robust`` preset), also
+with greedy additive edge contraction (``gaec``); ``core_attach`` (small masks follow one edge),
 ``view_consensus`` in place of ``pixel_match``; then the baselines
 ``maskclustering`` and ``sam3d``. Inputs (lifted scene, masks, matches) are
 computed once per scene and segmenter and shared by every row.
@@ -50,6 +53,7 @@ KEYS = ("iou", "f1", "iou_sel", "precision", "pixel_utility")
 
 JUMP: dict = {}
 CONCAVE = {"concave": 0.2, "fraction": 0.5, "reach": 4}
+ROBUST = Config.preset("robust").criterion_options("depth_repulsion")  # concave creases + jumps > 10 cm
 
 
 def _variant(base: Config, **update) -> Config:
@@ -69,6 +73,10 @@ def variants() -> dict[str, Config]:
         "GraphSeg-minus [rgbd]": base.without_3d(),
         "+ repulsion (jump), constrained UF": _variant(base, stages=_with_repulsion(base, JUMP), contractor="constrained"),
         "+ repulsion (jump+concave), constrained UF": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="constrained"),
+        "+ repulsion (jump 10 cm + concave), constrained UF": _variant(base, stages=_with_repulsion(base, ROBUST), contractor="constrained"),
+        "+ smooth_adjacency, constrained UF": _variant(base, stages=[stages[0], [*stages[1], "smooth_adjacency"]], contractor="constrained"),
+        "robust preset: repulsion (jump 10 cm + concave) + smooth_adjacency, constrained UF": Config.preset("robust"),
+        "robust preset with the gaec contractor": _variant(Config.preset("robust"), contractor="gaec"),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),
         "view_consensus for pixel_match": _variant(base, stages=[["view_consensus"], *stages[1:]]),

@@ -24,6 +24,9 @@ from typing import Any
 
 __all__ = ["main", "build_parser", "parse_backend_option"]
 
+#: The names of :data:`graphseg.config.PRESETS` (written out so that ``--help`` imports no config code; a test keeps them equal).
+PRESET_NAMES = ("rgbd", "paper", "robust")
+
 
 class BadInput(Exception):
     """A user-facing input problem (exit code 2)."""
@@ -58,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP)")
     r.add_argument("-o", "--out", required=True, help="output folder: must not exist, or be an earlier `graphseg run` output (else pass --overwrite)")
     r.add_argument("--config", help="YAML/JSON config file; its keys override the --preset in use")
-    r.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds); --config overrides it key by key")
+    r.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases, smooth_adjacency and the constrained contractor); --config overrides it key by key")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has depth, sfm when it has none)")
@@ -97,7 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--views", type=int, default=8, help="number of views (1..360)")
     d.add_argument("--objects", type=int, default=6, help="objects (1..16)")
-    d.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"])
+    d.add_argument("--preset", default="rgbd", choices=PRESET_NAMES)
     _common(d, overwrite=True)
 
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
@@ -119,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--videos", help="YCB-Video video ids of a dataset root, e.g. 0048,0049")
     b.add_argument("--method", help="comma-separated methods: graphseg, graphseg-minus (default graphseg unless --config is given)")
     b.add_argument("--config", action="append", help="config file swept as one more configuration (repeatable)")
-    b.add_argument("--preset", default="rgbd", choices=["rgbd", "paper"], help="preset the methods start from")
+    b.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="preset the methods start from")
     b.add_argument("--num-views", default="all", help="comma-separated view counts, e.g. 3,5,10 ('all' = every view)")
     b.add_argument("--segmenter", help="segmenter name")
     b.add_argument("--matcher", help="matcher name")

@@ -314,6 +314,22 @@ PRESETS: dict[str, dict[str, Any]] = {
         ],
         "background": {"max_overlap": 0.5},
     },
+    # rgbd plus the robust contraction of issue 12 (measured in docs/results.md, "Robust contraction")
+    "robust": {
+        "stages": [
+            [
+                {"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}},
+                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
+            ],
+            [
+                {"chamfer_3d": {"tau": 5e-5}},
+                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
+                {"smooth_adjacency": {"color": 15.0}},
+            ],
+        ],
+        "contractor": "constrained",
+        "background": {"max_overlap": 0.5},
+    },
 }
 
 

@@ -402,3 +402,16 @@ def test_eval_audit_and_method(scene_dir, tmp_path, capsys):
     assert set(m["audit"]) >= {"summary", "stages", "impure_masks", "merge_errors"}
     with pytest.raises(SystemExit):
         main(["run", str(scene_dir), "-o", str(tmp_path / "x"), "--method", "nope"])
+
+
+def test_preset_names_match_the_presets(small_scene, tmp_path, capsys):
+    from graphseg.cli import PRESET_NAMES
+    from graphseg.config import PRESETS, Config
+
+    assert sorted(PRESET_NAMES) == sorted(PRESETS)
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--preset", "robust", "--quiet"], capsys)
+    assert code == 0, err
+    used = Config.load(tmp_path / "o" / "config.yaml")
+    assert used == Config.preset("robust")
+    assert used.stage_names() == [["pixel_match", "depth_repulsion"], ["chamfer_3d", "depth_repulsion", "smooth_adjacency"]]
+    assert json.loads((tmp_path / "o" / "metrics.json").read_text())["mean"]["iou"] > 0.5

@@ -61,6 +61,11 @@ def test_presets_are_written_in_the_stage_form():
     assert r.criterion_options("chamfer_3d")["tau"] == 5e-5
     assert Config.preset("rgbd", pixel_match={"tau": 0.5}).criterion_options("pixel_match")["tau"] == 0.5
     assert Config.preset("paper") == Config()
+    rob = Config.preset("robust")
+    assert rob.criterion_options("depth_repulsion")["jump"] == 0.1 and rob.criterion_options("depth_repulsion")["concave"] == 0.2
+    assert rob.criterion_options("smooth_adjacency")["color"] == 15.0
+    assert rob.to_dict()["contractor"] == "constrained"
+    assert rob.criterion_options("pixel_match") == r.criterion_options("pixel_match")  # rgbd's evidence, robust contraction
 
 
 def test_string_stages_still_work():

@@ -23,6 +23,7 @@ edge_adders.register("chamfer_3d", "graphseg.graphs.chamfer:Chamfer3D")
 edge_adders.register("dino", "graphseg.graphs.features:FeatureSimilarity")
 edge_adders.register("depth_repulsion", "graphseg.graphs.repulsion:DepthRepulsion")
 edge_adders.register("view_consensus", "graphseg.graphs.consensus:ViewConsensus")
+edge_adders.register("smooth_adjacency", "graphseg.graphs.adjacency:SmoothAdjacency")
 edge_adders.register("bidirectional_overlap", "graphseg.graphs.overlap:BidirectionalOverlap")
 
 criteria = edge_adders
@@ -33,3 +34,4 @@ contractors.register("union_find", "graphseg.graphs.contract:UnionFindContractio
 contractors.register("scipy", "graphseg.graphs.contract:ScipyContraction")
 contractors.register("constrained", "graphseg.graphs.signed:ConstrainedUnionFindContraction")
 contractors.register("core_attach", "graphseg.graphs.signed:CoreAttachContraction")
+contractors.register("gaec", "graphseg.graphs.signed:GreedyAdditiveContraction")

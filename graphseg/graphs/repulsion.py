@@ -23,14 +23,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..geometry import point_normals
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
-__all__ = ["boundary_jumps", "depth_jump_cannot_links", "DepthRepulsion"]
+__all__ = ["boundary_jumps", "boundary_separation", "depth_jump_cannot_links", "DepthRepulsion"]
 
 
 def boundary_jumps(
@@ -102,12 +102,109 @@ def boundary_jumps(
     return np.concatenate(los), np.concatenate(his), np.concatenate(ds), np.concatenate(cs)
 
 
+def boundary_separation(
+    node_labels: Sequence[np.ndarray],
+    points: Sequence[np.ndarray | None],
+    num_nodes: int,
+    *,
+    jump: float | None = 0.02,
+    concave: float | None = None,
+    reach: int = 3,
+    normal_step: int = 3,
+    rgb: Sequence[np.ndarray] | None = None,
+    color: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node pairs that touch in some view, with their boundary length and the share of it that separates them.
+
+    Parameters
+    ----------
+    node_labels, points : per view ``[H, W]`` (-1 = none) and ``[H, W, 3]`` (NaN = invalid; None: view skipped)
+    num_nodes : int
+    jump : float, optional
+        Metres; a boundary pixel pair farther apart is a separation (a depth jump).
+    concave : float, optional
+        A boundary pixel pair whose convexity (see :func:`boundary_jumps`) is
+        below ``-concave`` is a separation: objects that touch (a box on a
+        box, a can against a block) meet at a concave crease without a depth
+        jump. Normals are those of :func:`graphseg.geometry.point_normals`
+        negated, i.e. facing the camera for point maps in the OpenCV camera
+        convention (x right, y down).
+    reach : int
+        See :func:`boundary_jumps`.
+    normal_step : int
+        Pixel step of the normals' central differences.
+    rgb : list of uint8 ``[H, W, 3]``, optional
+    color : float, optional
+        With ``rgb``: a boundary pixel pair whose CIE a*b* chromaticity
+        (OpenCV's 8-bit scale, blurred with sigma 1 px) differs by more than
+        this is a separation too: the boundary is a colour edge.
+
+    Returns
+    -------
+    pairs : int64 ``[2, P]``
+        Node pairs ``lo < hi`` that touch, pooled over views.
+    count : int64 ``[P]``
+        Boundary pixel pairs.
+    separated : float64 ``[P]``
+        The share of them that are separations.
+
+    Notes
+    -----
+    O(reach x total pixels) plus one sort of the boundary pixel pairs.
+
+    Examples
+    --------
+    >>> pts = np.zeros((1, 2, 3)); pts[0, 1, 2] = 0.5
+    >>> p, c, s = boundary_separation([np.array([[0, 1]])], [pts], 2, reach=1)
+    >>> p.tolist(), c.tolist(), s.tolist()
+    ([[0], [1]], [1], [1.0])
+    """
+    los, his, seps = [], [], []
+    n = max(int(num_nodes), 1)
+    for k, (lab, pts) in enumerate(zip(node_labels, points)):
+        if pts is None:
+            continue
+        nrm = None if concave is None else -point_normals(np.asarray(pts, np.float32), normal_step)
+        lo, hi, d, conv = boundary_jumps(lab, pts, num_nodes, reach=reach, normals=nrm)
+        sep = np.zeros(d.shape, bool)
+        if jump is not None:
+            sep |= d > jump
+        if concave is not None:
+            sep |= conv < -concave
+        if color is not None and rgb is not None:
+            # the same pixel pairs in the same order: chromaticity as a point map, invalid where the points are
+            ab = _chromaticity(rgb[k])
+            ab[~np.isfinite(np.asarray(pts)).all(-1)] = np.nan
+            sep |= boundary_jumps(lab, ab, num_nodes, reach=reach)[2] > color
+        los.append(lo)
+        his.append(hi)
+        seps.append(sep)
+    if not los or not sum(x.size for x in los):
+        return np.zeros((2, 0), np.int64), np.zeros(0, np.int64), np.zeros(0)
+    key = np.concatenate(los) * n + np.concatenate(his)
+    uk, inv = np.unique(key, return_inverse=True)
+    count = np.bincount(inv)
+    separated = np.bincount(inv, weights=np.concatenate(seps).astype(np.float64)) / count
+    u, v = np.divmod(uk, n)
+    return np.stack([u, v]).astype(np.int64), count.astype(np.int64), separated
+
+
+def _chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """CIE a*, b* (OpenCV's 8-bit scale, blurred with sigma 1 px) as a float64 ``[H, W, 3]`` map with a zero third channel."""
+    import cv2
+
+    lab = cv2.GaussianBlur(cv2.cvtColor(np.ascontiguousarray(rgb, np.uint8), cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 1.0)
+    out = np.zeros((*lab.shape[:2], 3))
+    out[..., :2] = lab[..., 1:]
+    return out
+
+
 def depth_jump_cannot_links(
     node_labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray],
     num_nodes: int,
     *,
-    jump: float = 0.02,
+    jump: float | None = 0.02,
     fraction: float = 0.5,
     reach: int = 3,
     min_pairs: int = 10,
@@ -115,80 +212,54 @@ def depth_jump_cannot_links(
     concave: float | None = None,
     normal_step: int = 3,
 ) -> EdgeSet:
-    """Cannot-link edges between nodes whose shared boundary is mostly a depth jump.
+    """Cannot-link edges between nodes whose shared boundary is mostly a depth jump or a concave crease.
 
     Parameters
     ----------
     node_labels, points : per view ``[H, W]`` and ``[H, W, 3]``
     num_nodes : int
-    jump : float
-        Metres; a boundary pixel pair farther apart than this is a jump.
+    jump, concave, reach, normal_step
+        What separates two nodes across a boundary pixel pair (see
+        :func:`boundary_separation`); at least one of ``jump`` and ``concave``.
     fraction : float
         A pair is a cannot-link when at least this fraction of its boundary
-        pixel pairs (pooled over views) are jumps.
-    reach : int
-        See :func:`boundary_jumps`.
+        pixel pairs (pooled over views) are separations.
     min_pairs : int
         Pairs with fewer boundary pixel pairs are ignored.
-    concave : float, optional
-        Also count a boundary pixel pair as a separation when its convexity
-        (see :func:`boundary_jumps`) is below ``-concave``: objects that touch
-        (a box on a box, a can against a block) meet at a concave crease
-        without a depth jump. Normals are those of
-        :func:`graphseg.geometry.point_normals` negated, i.e. facing the camera
-        for point maps in the OpenCV camera convention (x right, y down).
-    normal_step : int
-        Pixel step of the normals' central differences.
     same_view : bool
         Stricter rule: every two nodes seen in one view are a cannot-link
         unless they touch there along a smooth boundary (at least
         ``min_pairs`` boundary pixel pairs, less than ``fraction`` of them
-        jumps). Parts of one surface touch smoothly; separate objects meet at
-        a jump or not at all.
+        separations). Parts of one surface touch smoothly; separate objects
+        meet at a jump or not at all.
 
     Returns
     -------
     EdgeSet
         Columns ``criterion`` ("depth_repulsion"), ``sign`` (-1.0), ``weight``
-        (the jump fraction) and ``count`` (boundary pixel pairs).
+        (the separated fraction) and ``count`` (boundary pixel pairs).
 
     Notes
     -----
     O(reach x total pixels) plus one sort of the boundary pairs.
     """
-    los, his, jumps = [], [], []
-    for lab, pts in zip(node_labels, points):
-        if pts is None:
-            continue
-        nrm = None if concave is None else -point_normals(np.asarray(pts, np.float32), normal_step)
-        lo, hi, d, conv = boundary_jumps(lab, pts, num_nodes, reach=reach, normals=nrm)
-        los.append(lo)
-        his.append(hi)
-        jumps.append((d > jump) | ((conv < -concave) if concave is not None else False))
-    if los and sum(x.size for x in los):
-        key = np.concatenate(los) * max(num_nodes, 1) + np.concatenate(his)
-        jmp = np.concatenate(jumps)
-        uk, inv = np.unique(key, return_inverse=True)
-        count = np.bincount(inv)
-        frac = np.bincount(inv, weights=jmp) / count
-        keep = (count >= min_pairs) & (frac >= fraction)
-        smooth = uk[(count >= min_pairs) & (frac < fraction)]
-        u, v = np.divmod(uk[keep], max(num_nodes, 1))
-        ei = np.stack([u, v]).astype(np.int64)
-        w, c = frac[keep], count[keep]
-    else:
-        ei, w, c = np.zeros((2, 0), np.int64), np.zeros(0), np.zeros(0, np.int64)
-        smooth = np.zeros(0, np.int64)
+    if jump is None and concave is None:
+        raise ValueError("depth_repulsion: jump and concave are both None; give at least one")
+    pairs, count, frac = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step)
+    seen = count >= min_pairs
+    keep = seen & (frac >= fraction)
+    ei, w, c = pairs[:, keep], frac[keep], count[keep]
     if same_view:
+        n = max(num_nodes, 1)
+        touching = pairs[0, seen] * n + pairs[1, seen]  # smooth contacts and cannot-links already found
         keys = [_pairs_of(np.unique(lab[lab >= 0]).astype(np.int64), num_nodes) for lab in node_labels]
-        allk = np.unique(np.concatenate([*keys, np.zeros(0, np.int64)]))
-        extra = np.setdiff1d(allk, np.concatenate([smooth, uk[keep] if los and sum(x.size for x in los) else np.zeros(0, np.int64)]))
-        u, v = np.divmod(extra, max(num_nodes, 1))
+        extra = np.setdiff1d(np.unique(np.concatenate([*keys, np.zeros(0, np.int64)])), touching)
+        u, v = np.divmod(extra, n)
         ei = np.concatenate([ei, np.stack([u, v]).astype(np.int64)], axis=1)
         w = np.concatenate([w, np.ones(extra.size)])
         c = np.concatenate([c, np.zeros(extra.size, np.int64)])
-    n = ei.shape[1]
-    return EdgeSet(ei, {"criterion": np.full(n, "depth_repulsion"), "sign": -np.ones(n), "weight": w, "count": c}, info={"cannot_links": n})
+    n_edges = ei.shape[1]
+    return EdgeSet(ei, {"criterion": np.full(n_edges, "depth_repulsion"), "sign": -np.ones(n_edges), "weight": w, "count": c}, info={"cannot_links": n_edges})
 
 
 def _pairs_of(nodes: np.ndarray, num_nodes: int) -> np.ndarray:
@@ -215,13 +286,19 @@ class DepthRepulsion(Criterion):
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
-        jump: float = Field(0.02, gt=0)
+        jump: float | None = Field(0.02, gt=0)
         fraction: float = Field(0.5, gt=0, le=1)
         reach: int = Field(3, ge=1)
         min_pairs: int = Field(10, ge=1)
         same_view: bool = False
         concave: float | None = Field(None, gt=0)
         normal_step: int = Field(3, ge=1)
+
+        @model_validator(mode="after")
+        def _some_separation(self) -> DepthRepulsion.Options:
+            if self.jump is None and self.concave is None:
+                raise ValueError("jump and concave are both None; give at least one")
+            return self
 
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:

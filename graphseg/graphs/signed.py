@@ -30,9 +30,11 @@ __all__ = [
     "constrained_union_find",
     "core_attach_contraction",
     "edge_strength",
+    "greedy_additive_contraction",
     "split_signed",
     "ConstrainedUnionFindContraction",
     "CoreAttachContraction",
+    "GreedyAdditiveContraction",
 ]
 
 
@@ -104,6 +106,95 @@ def constrained_union_find(edge_index: Any, num_nodes: int, *, weight: Any = Non
             forbid[ru].add(x)
         forbid[rv] = set()
     return canonical_cluster(np.fromiter((find(i) for i in range(n)), np.int64, n))
+
+
+def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any = None, cannot_link: Any = None) -> np.ndarray:
+    """Greedy additive edge contraction (GAEC, a multicut heuristic) with hard cannot-links.
+
+    Every cluster pair carries the *sum* of the weights of the edges between
+    its members. The pair with the largest sum is joined first and the sums
+    of the joined cluster are added up, so a cluster that many edges tie
+    together closes before a single strong edge can pull a part of it
+    elsewhere. Cannot-link pairs never join (their sum is -inf). Unlike
+    :func:`constrained_union_find`, which takes edges one by one, this lets the
+    evidence of many edges outweigh one: parts of an object join each other,
+    and the cannot-link of one of them then keeps the whole object apart.
+
+    Parameters
+    ----------
+    edge_index : array_like of int, shape ``[2, E]``
+        Attractive edges (parallel edges add up; self-loops are ignored).
+    num_nodes : int
+    weight : array_like of float, shape ``[E]``, optional
+        Positive attraction of each edge; default all 1.
+    cannot_link : array_like of int, shape ``[2, C]``, optional
+        Node pairs that must end in different clusters.
+
+    Returns
+    -------
+    numpy.ndarray
+        Canonical cluster ids, int64 ``[N]``.
+
+    Notes
+    -----
+    O((E + C) log(E + C)) heap operations; cluster adjacencies merge smaller
+    into larger. Pure Python loops: about 1 s per 10^5 edges. Without
+    cannot-links it equals connected components.
+
+    Examples
+    --------
+    >>> ei = np.array([[0, 1, 0], [1, 2, 2]])     # a triangle 0-1-2
+    >>> greedy_additive_contraction(ei, 4, weight=[0.9, 0.8, 0.3]).tolist()
+    [0, 0, 0, 1]
+    >>> greedy_additive_contraction(ei, 3, weight=[0.9, 0.8, 0.3], cannot_link=[[0], [2]]).tolist()
+    [0, 0, 1]
+    """
+    import heapq
+
+    n = int(num_nodes)
+    ei = as_edge_index(edge_index, n)
+    w = np.ones(ei.shape[1]) if weight is None else np.asarray(weight, np.float64).reshape(-1)
+    if w.shape != (ei.shape[1],):
+        raise ValueError(f"expected weight of shape [{ei.shape[1]}] (got {list(w.shape)})")
+    if not np.all(np.isfinite(w) & (w > 0)):
+        raise ValueError(f"expected positive finite weights (got min {w.min():g})")
+    cl = as_edge_index(np.zeros((2, 0), np.int64) if cannot_link is None else cannot_link, n)
+    adj: list[dict[int, float]] = [{} for _ in range(n)]
+    for a, b, x in zip(ei[0].tolist(), ei[1].tolist(), w.tolist()):
+        if a != b:
+            adj[a][b] = adj[a].get(b, 0.0) + x
+            adj[b][a] = adj[a][b]
+    for a, b in cl.T.tolist():
+        if a != b:
+            adj[a][b] = adj[b][a] = -np.inf
+    heap = [(-x, a, b) for a in range(n) for b, x in adj[a].items() if a < b and x > 0]
+    heapq.heapify(heap)
+    parent = np.arange(n)
+    alive = np.ones(n, bool)
+    while heap:
+        negw, a, b = heapq.heappop(heap)
+        if not (alive[a] and alive[b]) or adj[a].get(b) != -negw:
+            continue  # stale: a side was merged or the sum changed
+        if len(adj[a]) < len(adj[b]):
+            a, b = b, a
+        # b joins a: add b's sums into a's
+        del adj[a][b]
+        del adj[b][a]
+        for c, x in adj[b].items():
+            del adj[c][b]
+            y = adj[a].get(c, 0.0) + x
+            adj[a][c] = adj[c][a] = y
+            if y > 0:
+                heapq.heappush(heap, (-y, min(a, c), max(a, c)))
+        adj[b] = {}
+        alive[b] = False
+        parent[b] = a
+    while True:  # resolve merge chains
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            break
+        parent = nxt
+    return canonical_cluster(parent)
 
 
 def edge_strength(edge_attr: Mapping[str, Any], num_edges: int) -> np.ndarray:
@@ -278,3 +369,28 @@ class CoreAttachContraction:
         area = None if node_attr is None else node_attr.get("area")
         core = np.ones(num_nodes, bool) if area is None else np.asarray(area, np.float64) >= self.min_area
         return core_attach_contraction(ei[:, pos], num_nodes, core=core, weight=strength, cannot_link=ei[:, neg])
+
+
+class GreedyAdditiveContraction:
+    """Contractor: :func:`greedy_additive_contraction` on a graph's signed edges.
+
+    Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
+    (``uses_edge_attr = True``): edges with ``sign < 0`` are cannot-links; the
+    others attract with their :func:`edge_strength`, summed per cluster pair.
+
+    Examples
+    --------
+    >>> c = GreedyAdditiveContraction()
+    >>> c(np.array([[0, 1, 0], [1, 2, 2]]), 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist()
+    [0, 0, 1]
+    """
+
+    name = "gaec"
+    uses_edge_attr = True
+
+    def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
+        ei = as_edge_index(edge_index, num_nodes)
+        attrs = dict(edge_attr or {})
+        pos, neg = split_signed(ei, attrs)
+        strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
+        return greedy_additive_contraction(ei[:, pos], num_nodes, weight=strength, cannot_link=ei[:, neg])

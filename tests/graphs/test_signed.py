@@ -10,9 +10,11 @@ from graphseg.graphs.contract import canonical_cluster
 from graphseg.graphs.signed import (
     ConstrainedUnionFindContraction,
     CoreAttachContraction,
+    GreedyAdditiveContraction,
     constrained_union_find,
     core_attach_contraction,
     edge_strength,
+    greedy_additive_contraction,
     split_signed,
 )
 
@@ -123,3 +125,59 @@ def test_registered_and_called_with_edge_attr():
     ei = np.array([[0, 1, 0], [1, 2, 2]])
     out = c(ei, 3, edge_attr={"weight": np.array([0.9, 0.1, 1.0]), "sign": np.array([1.0, 1.0, -1.0]), "criterion": np.array(["p", "p", "r"])})
     assert out.tolist() == [0, 0, 1]
+
+
+def test_gaec_shape_and_hand_computed():
+    # path 0-1-2-3 with a cannot-link 0-3: 0-1 (0.9) and 2-3 (0.8) join; {0,1}-{2,3} sums 0.2 + (-inf)
+    ei = np.array([[0, 1, 2], [1, 2, 3]])
+    c = greedy_additive_contraction(ei, 5, weight=[0.9, 0.2, 0.8], cannot_link=[[0], [3]])
+    assert c.dtype == np.int64 and c.shape == (5,)
+    assert c.tolist() == [0, 0, 1, 1, 2]  # {0,1} and {2,3} close first; joining them would violate 0-3
+
+
+def test_gaec_sums_parallel_evidence():
+    # node 2 has one strong edge to 0 and two weaker edges to the {3, 4} group; 0 and 3 may not join
+    ei = np.array([[2, 2, 2, 3], [0, 3, 4, 4]])
+    w = [0.9, 0.6, 0.6, 1.0]
+    cl = [[0], [3]]
+    c = greedy_additive_contraction(ei, 5, weight=w, cannot_link=cl)
+    assert c[2] == c[3] == c[4] and c[0] != c[2]  # 0.6 + 0.6 > 0.9 once {3, 4} is one cluster
+    u = constrained_union_find(ei, 5, weight=w, cannot_link=cl)
+    assert u[2] == u[0] and u[2] != u[3]  # edge by edge, the single strong edge wins
+
+
+def test_gaec_bad_weights():
+    with pytest.raises(ValueError, match=r"weight of shape \[1\]"):
+        greedy_additive_contraction(np.array([[0], [1]]), 2, weight=[1.0, 2.0])
+    with pytest.raises(ValueError, match="positive"):
+        greedy_additive_contraction(np.array([[0], [1]]), 2, weight=[0.0])
+    assert greedy_additive_contraction(np.zeros((2, 0), np.int64), 3).tolist() == [0, 1, 2]
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs)
+def test_gaec_never_joins_a_cannot_link_pair_and_refines_components(data):
+    n, edges, cl, w = data
+    ei = as_ei(edges)
+    c = greedy_additive_contraction(ei, n, weight=np.asarray(w[: ei.shape[1]]) + 0.01, cannot_link=as_ei(cl))
+    for a, b in cl:
+        if a != b:
+            assert c[a] != c[b]
+    cc = components(ei, n)
+    for k in np.unique(c):
+        assert np.unique(cc[c == k]).size == 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs)
+def test_gaec_without_cannot_links_equals_components(data):
+    n, edges, _, w = data
+    ei = as_ei(edges)
+    assert greedy_additive_contraction(ei, n, weight=np.asarray(w[: ei.shape[1]]) + 0.01).tolist() == components(ei, n).tolist()
+
+
+def test_gaec_registered():
+    c = contractors.resolve("gaec")
+    assert isinstance(c, GreedyAdditiveContraction) and c.uses_edge_attr
+    ei = np.array([[0, 1, 0], [1, 2, 2]])
+    assert c(ei, 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist() == [0, 0, 1]

@@ -1,0 +1,121 @@
+"""Attractive evidence: masks of one view that meet along a smooth, convex boundary are parts of one surface.
+
+The ``smooth_adjacency`` criterion is the counterpart of ``depth_repulsion``
+(:mod:`graphseg.graphs.repulsion`). It measures the same boundary pixel pairs
+(:func:`graphseg.graphs.repulsion.boundary_separation`), and joins two nodes when
+their shared boundary is long and almost nowhere a separation: no depth jump
+and no concave crease. A segmenter that cut one surface (texture, a printed
+label, a random part split) leaves such a boundary. Two objects that touch
+meet at a jump or a concave crease instead.
+
+This evidence joins parts that no other view overlaps, such as the parts of an
+object seen in one view only. Pair it with a contractor that honours
+cannot-links (``constrained``): a smooth contact between two objects would
+otherwise join them for good.
+
+Examples
+--------
+>>> import numpy as np
+>>> lab = np.array([[0, 0, 1, 1]])
+>>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = [0.0, 0.001, 0.002, 0.003]  # one flat surface
+>>> smooth_adjacency_links([lab], [pts], 2, min_pairs=1).edge_index.tolist()
+[[0], [1]]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from .criterion import Criterion
+from .evidence import EdgeSet, Evidence
+from .graph import CorrespondenceGraph
+from .repulsion import boundary_separation
+
+__all__ = ["smooth_adjacency_links", "SmoothAdjacency"]
+
+
+def smooth_adjacency_links(
+    node_labels: Sequence[np.ndarray],
+    points: Sequence[np.ndarray | None],
+    num_nodes: int,
+    *,
+    jump: float = 0.02,
+    concave: float | None = 0.2,
+    max_separated: float = 0.1,
+    min_pairs: int = 30,
+    reach: int = 3,
+    normal_step: int = 3,
+    rgb: Sequence[np.ndarray] | None = None,
+    color: float | None = 15.0,
+) -> EdgeSet:
+    """Attractive edges between nodes that touch along a long, smooth, convex boundary.
+
+    Parameters
+    ----------
+    node_labels, points, num_nodes, jump, concave, reach, normal_step, rgb, color
+        What separates two nodes across a boundary pixel pair: see
+        :func:`graphseg.graphs.repulsion.boundary_separation` (the colour test
+        runs when ``rgb`` is given). The default ``color`` was measured: without
+        it, objects that touch along a flat contact (a can against a block on
+        YCB-Video 0002) join (``docs/results.md``).
+    max_separated : float
+        A pair is joined when at most this share of its boundary pixel pairs
+        are separations.
+    min_pairs : int
+        ... and it has at least this many boundary pixel pairs (pooled over
+        views): a short contact is no evidence.
+
+    Returns
+    -------
+    EdgeSet
+        Columns ``criterion`` ("smooth_adjacency"), ``weight`` (1 - the
+        separated share) and ``count`` (boundary pixel pairs).
+
+    Notes
+    -----
+    O(reach x total pixels) plus one sort of the boundary pixel pairs.
+    """
+    pairs, count, sep = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color)
+    keep = (count >= min_pairs) & (sep <= max_separated)
+    n = int(keep.sum())
+    return EdgeSet(pairs[:, keep], {"criterion": np.full(n, "smooth_adjacency"), "weight": 1.0 - sep[keep], "count": count[keep]}, info={"links": n})
+
+
+class SmoothAdjacency(Criterion):
+    """The ``smooth_adjacency`` criterion: :func:`smooth_adjacency_links` as an edge adder.
+
+    Examples
+    --------
+    >>> g = CorrespondenceGraph.from_masks([np.array([[1, 1, 2, 2]])])
+    >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = np.arange(4) * 0.001
+    >>> rgb = [np.full((1, 4, 3), 128, np.uint8)]
+    >>> SmoothAdjacency(min_pairs=1)(g, Evidence.for_graph(g, points=[pts], rgb=rgb)).edge_index.tolist()
+    [[0], [1]]
+    """
+
+    name = "smooth_adjacency"
+    requires = frozenset({"node_labels", "points", "rgb"})
+    reduce = {"weight": "max", "count": "sum"}
+    tags = {"dimension": "3d"}
+
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        jump: float = Field(0.02, gt=0)
+        concave: float | None = Field(0.2, gt=0)
+        max_separated: float = Field(0.1, ge=0, lt=1)
+        min_pairs: int = Field(30, ge=1)
+        reach: int = Field(3, ge=1)
+        normal_step: int = Field(3, ge=1)
+        color: float | None = Field(15.0, gt=0)
+
+    def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
+        if evidence.points is None:
+            raise ValueError("smooth_adjacency needs world points")
+        opts = self.options.model_dump()
+        rgb = evidence.rgb if opts["color"] is not None else None
+        if opts["color"] is not None and rgb is None:
+            raise ValueError("smooth_adjacency with color needs rgb images")
+        return smooth_adjacency_links(evidence.node_labels, evidence.points, graph.num_nodes, rgb=rgb, **opts)
