@@ -11,10 +11,12 @@ from graphseg.audit import (
     impure_masks,
     lift_edges,
     majority,
+    majority_labels,
     mask_gt_counts,
     min_cut_edges,
     wrong_edges,
 )
+from graphseg.config import Config
 from graphseg.graphs import CorrespondenceGraph, coarsen
 from graphseg.method.segment import segment
 from graphseg.testing.scenes import two_boxes_scene
@@ -95,3 +97,28 @@ def test_cannot_links_are_not_wrong_edges():
     result.graphs = [g, result.graphs[1]]
     st = audit(result, scene)["stages"][0]
     assert st["wrong"] == 1 and st["cannot_links"] == 2 and st["wrong_cannot_links"] == 1  # 0-2 is one object
+
+
+def test_majority_labels_shape_and_values():
+    masks = [np.array([[0, 1, 1], [2, 2, 0]]), np.array([[3, 0, 0], [0, 0, 0]])]
+    out = majority_labels(masks, np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2]), np.array([5, 0, 9, 9, 6]))
+    assert [o.shape for o in out] == [(2, 3), (2, 3)] and all(o.dtype == np.int64 for o in out)
+    assert out[0].tolist() == [[0, 5, 5], [0, 0, 0]]  # mask 1 lies on the background: no object
+    assert out[1].tolist() == [[6, 0, 0], [0, 0, 0]]
+    assert majority_labels([np.zeros((1, 2), np.int64)], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))[0].tolist() == [[0, 0]]
+
+
+def test_grouping_cap_bounds_the_run():
+    """The cap is the IoU of the best grouping of the same masks: never below the run's own IoU."""
+    from graphseg.metrics import evaluate
+
+    scene, masks, matches = two_boxes_scene()
+    r = segment(scene, masks, matches)
+    rep = audit(r, scene)
+    run_iou = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])["mean"]["iou"]
+    assert rep["summary"]["grouping_cap_iou"] >= round(run_iou, 4) - 1e-9
+    assert "best grouping" in format_audit(rep) and "best grouping" in audit_html(rep)
+    # a run that merged the two boxes scores below the cap
+    merged = segment(scene, masks, matches, Config(stages=[[{"pixel_match": {"tau": 0.0, "min_matches": 1}}], [{"chamfer_3d": {"tau": 1e3}}]]))
+    merged_iou = evaluate(merged.labels, [v.instances for v in scene.views], [v.points for v in scene.views])["mean"]["iou"]
+    assert merged_iou < audit(merged, scene)["summary"]["grouping_cap_iou"]
