@@ -405,7 +405,7 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         from .metrics import evaluate
 
         best = majority_labels(g0.masks, mem["view"], mem["mask_id"], base_obj)
-        best_iou = evaluate(best, [np.asarray(g) for g in gt], pts)["mean"].get("iou")
+        best_iou = evaluate(best, [np.asarray(g) for g in gt], [np.asarray(p) for p in pts])["mean"].get("iou")
         cap = None if best_iou is None else round(float(best_iou), 4)  # None: no ground-truth object
     summary = {
         "masks": int(counts.shape[0]),

@@ -3,15 +3,17 @@
 The ``smooth_adjacency`` criterion is the counterpart of ``depth_repulsion``
 (:mod:`graphseg.graphs.repulsion`). It measures the same boundary pixel pairs
 (:func:`graphseg.graphs.repulsion.boundary_separation`), and joins two nodes when
-their shared boundary is long and almost nowhere a separation: no depth jump
-and no concave crease. A segmenter that cut one surface (texture, a printed
-label, a random part split) leaves such a boundary. Two objects that touch
-meet at a jump or a concave crease instead.
+their shared boundary is long and almost nowhere a separation: no depth jump,
+no concave crease and, with ``color`` (the default), no colour edge. A cut
+through one surface where nothing changes (a random part split, a depth
+threshold on a steep face) leaves such a boundary. Two objects that touch
+meet at a jump, a concave crease or a colour edge instead; where they meet
+without any of the three (two flat faces of one colour side by side), this
+criterion joins them, so pair it with a contractor that honours cannot-links
+(``constrained``).
 
 This evidence joins parts that no other view overlaps, such as the parts of an
-object seen in one view only. Pair it with a contractor that honours
-cannot-links (``constrained``): a smooth contact between two objects would
-otherwise join them for good.
+object seen in one view only.
 
 Examples
 --------
