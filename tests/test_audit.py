@@ -108,17 +108,18 @@ def test_majority_labels_shape_and_values():
     assert majority_labels([np.zeros((1, 2), np.int64)], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))[0].tolist() == [[0, 0]]
 
 
-def test_grouping_cap_bounds_the_run():
-    """The cap is the IoU of the best grouping of the same masks: never below the run's own IoU."""
-    from graphseg.metrics import evaluate
+def test_majority_grouping_is_the_perfect_graph_score():
+    """The majority grouping scores what a graph that gets every mask right would score."""
+    from graphseg.metrics import evaluate, mean_iou
 
     scene, masks, matches = two_boxes_scene()
+    gt = [v.instances for v in scene.views]
+    pts = [v.points for v in scene.views]
     r = segment(scene, masks, matches)
     rep = audit(r, scene)
-    run_iou = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])["mean"]["iou"]
-    assert rep["summary"]["grouping_cap_iou"] >= round(run_iou, 4) - 1e-9
-    assert "best grouping" in format_audit(rep) and "best grouping" in audit_html(rep)
-    # a run that merged the two boxes scores below the cap
+    assert rep["summary"]["majority_grouping_iou"] == pytest.approx(evaluate(r.labels, gt, pts)["mean"]["iou"], abs=1e-4)  # this run is perfect
+    assert "majority object" in format_audit(rep) and "majority object" in audit_html(rep)
+    # a run that merged the two boxes scores below it
     merged = segment(scene, masks, matches, Config(stages=[[{"pixel_match": {"tau": 0.0, "min_matches": 1}}], [{"chamfer_3d": {"tau": 1e3}}]]))
-    merged_iou = evaluate(merged.labels, [v.instances for v in scene.views], [v.points for v in scene.views])["mean"]["iou"]
-    assert merged_iou < audit(merged, scene)["summary"]["grouping_cap_iou"]
+    assert merged.num_objects == 1
+    assert mean_iou(merged.labels, gt, pts) < audit(merged, scene)["summary"]["majority_grouping_iou"] - 0.2

@@ -74,3 +74,18 @@ def test_evaluate_perfect_prediction():
     m = evaluate([gt[0] * 3], gt, [line_points(3)], names={1: "mug"})
     assert all(o["iou"] == 1.0 and o["chamfer"] == 0.0 for o in m["objects"])
     assert m["objects"][0]["name"] == "mug" and m["mean"]["f1"] == 1.0
+
+
+def test_mean_iou_matches_evaluate_and_edge_cases():
+    from graphseg.metrics import mean_iou
+
+    rng = np.random.default_rng(0)
+    gt = [rng.integers(0, 4, (6, 7)) for _ in range(2)]
+    pred = [rng.integers(0, 5, (6, 7)) for _ in range(2)]
+    pts = [rng.normal(size=(6, 7, 3)) for _ in range(2)]
+    pts[0][0, :3] = np.nan  # ignored pixels
+    assert mean_iou(pred, gt, pts) == pytest.approx(evaluate(pred, gt, pts)["mean"]["iou"])
+    # hand-computed: gt object 1 = 2 px, predicted 7 covers them and 1 more -> 2/3; object 2 unmatched -> 0
+    assert mean_iou([np.array([[7, 7, 7, 0]])], [np.array([[1, 1, 0, 2]])], [np.zeros((1, 4, 3))]) == pytest.approx(1 / 3)
+    assert mean_iou([np.zeros((1, 2), int)], [np.zeros((1, 2), int)], [np.zeros((1, 2, 3))]) is None  # no object
+    assert mean_iou([np.zeros((1, 2), int)], [np.ones((1, 2), int)], [np.zeros((1, 2, 3))]) == 0.0  # nothing predicted

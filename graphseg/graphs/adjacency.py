@@ -20,7 +20,7 @@ Examples
 >>> import numpy as np
 >>> lab = np.array([[0, 0, 1, 1]])
 >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = [0.0, 0.001, 0.002, 0.003]  # one flat surface
->>> smooth_adjacency_links([lab], [pts], 2, min_pairs=1).edge_index.tolist()
+>>> smooth_adjacency_links([lab], [pts], 2, min_pairs=1, concave=None).edge_index.tolist()  # one row: no normals
 [[0], [1]]
 """
 
@@ -29,7 +29,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
@@ -44,7 +44,7 @@ def smooth_adjacency_links(
     points: Sequence[np.ndarray | None],
     num_nodes: int,
     *,
-    jump: float = 0.02,
+    jump: float | None = 0.02,
     concave: float | None = 0.2,
     max_separated: float = 0.1,
     min_pairs: int = 30,
@@ -57,12 +57,25 @@ def smooth_adjacency_links(
 
     Parameters
     ----------
-    node_labels, points, num_nodes, jump, concave, reach, normal_step, rgb, color
-        What separates two nodes across a boundary pixel pair: see
-        :func:`graphseg.graphs.repulsion.boundary_separation` (the colour test
-        runs when ``rgb`` is given). The default ``color`` was measured: without
-        it, objects that touch along a flat contact (a can against a block on
-        YCB-Video 0002) join (``docs/results.md``).
+    node_labels : list of int ``[H, W]``
+        Pixel -> node per view (-1 = none).
+    points : list of float ``[H, W, 3]`` (or None per view)
+        World points, NaN = invalid.
+    num_nodes : int
+    jump : float, optional
+        Metres; a larger 3D step across the boundary is a separation.
+    concave : float, optional
+        Convexity below ``-concave`` is a separation; boundary pixel pairs
+        whose convexity is unknown (next to invalid depth) are left out.
+    reach, normal_step : int
+        Pixel offsets compared across the boundary; step of the normals.
+    rgb : list of uint8 ``[H, W, 3]``, optional
+    color : float, optional
+        With ``rgb``: a colour edge (CIE a*b* difference) is a separation. The
+        default was measured: without it, objects that touch along a flat
+        contact (a can against a block on YCB-Video 0002) join
+        (``docs/results.md``). See
+        :func:`graphseg.graphs.repulsion.boundary_separation` for all three tests.
     max_separated : float
         A pair is joined when at most this share of its boundary pixel pairs
         are separations.
@@ -80,7 +93,11 @@ def smooth_adjacency_links(
     -----
     O(reach x total pixels) plus one sort of the boundary pixel pairs.
     """
-    pairs, count, sep = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color)
+    if jump is None and concave is None and (color is None or rgb is None):
+        raise ValueError("smooth_adjacency: no separation test (jump, concave and color are all off); every touching pair would join")
+    pairs, count, sep = boundary_separation(
+        node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color, drop_unknown=True
+    )
     keep = (count >= min_pairs) & (sep <= max_separated)
     n = int(keep.sum())
     return EdgeSet(pairs[:, keep], {"criterion": np.full(n, "smooth_adjacency"), "weight": 1.0 - sep[keep], "count": count[keep]}, info={"links": n})
@@ -94,7 +111,7 @@ class SmoothAdjacency(Criterion):
     >>> g = CorrespondenceGraph.from_masks([np.array([[1, 1, 2, 2]])])
     >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = np.arange(4) * 0.001
     >>> rgb = [np.full((1, 4, 3), 128, np.uint8)]
-    >>> SmoothAdjacency(min_pairs=1)(g, Evidence.for_graph(g, points=[pts], rgb=rgb)).edge_index.tolist()
+    >>> SmoothAdjacency(min_pairs=1, concave=None)(g, Evidence.for_graph(g, points=[pts], rgb=rgb)).edge_index.tolist()
     [[0], [1]]
     """
 
@@ -105,13 +122,19 @@ class SmoothAdjacency(Criterion):
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
-        jump: float = Field(0.02, gt=0)
+        jump: float | None = Field(0.02, gt=0)
         concave: float | None = Field(0.2, gt=0)
         max_separated: float = Field(0.1, ge=0, lt=1)
         min_pairs: int = Field(30, ge=1)
         reach: int = Field(3, ge=1)
         normal_step: int = Field(3, ge=1)
         color: float | None = Field(15.0, gt=0)
+
+        @model_validator(mode="after")
+        def _some_separation(self) -> SmoothAdjacency.Options:
+            if self.jump is None and self.concave is None and self.color is None:
+                raise ValueError("jump, concave and color are all None; every touching pair would join")
+            return self
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         if evidence.points is None:

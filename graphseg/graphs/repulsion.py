@@ -113,6 +113,7 @@ def boundary_separation(
     normal_step: int = 3,
     rgb: Sequence[np.ndarray] | None = None,
     color: float | None = None,
+    drop_unknown: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs that touch in some view, with their boundary length and the share of it that separates them.
 
@@ -138,6 +139,12 @@ def boundary_separation(
         With ``rgb``: a boundary pixel pair whose CIE a*b* chromaticity
         (OpenCV's 8-bit scale, blurred with sigma 1 px) differs by more than
         this is a separation too: the boundary is a colour edge.
+    drop_unknown : bool
+        With ``concave``: leave out boundary pixel pairs whose convexity is
+        unknown (normals are NaN within ``normal_step`` px of an invalid point
+        and at the image border). Attractive evidence needs this: a crease
+        next to a depth hole is no proof of a smooth surface. Cannot-links
+        keep them (as not separated).
 
     Returns
     -------
@@ -159,6 +166,9 @@ def boundary_separation(
     >>> p.tolist(), c.tolist(), s.tolist()
     ([[0], [1]], [1], [1.0])
     """
+    use_color = color is not None and rgb is not None
+    if use_color and len(rgb) != len(node_labels):  # type: ignore[arg-type]
+        raise ValueError(f"expected one rgb image per view ({len(node_labels)}) (got {len(rgb)})")  # type: ignore[arg-type]
     los, his, seps = [], [], []
     n = max(int(num_nodes), 1)
     for k, (lab, pts) in enumerate(zip(node_labels, points)):
@@ -171,11 +181,17 @@ def boundary_separation(
             sep |= d > jump
         if concave is not None:
             sep |= conv < -concave
-        if color is not None and rgb is not None:
+        if use_color:
+            img = np.asarray(rgb[k])  # type: ignore[index]
+            if img.shape != (*np.shape(lab), 3) or img.dtype != np.uint8:
+                raise ValueError(f"expected rgb[{k}] of shape [{np.shape(lab)[0]}, {np.shape(lab)[1]}, 3] and dtype uint8 (got {list(img.shape)} {img.dtype})")
             # the same pixel pairs in the same order: chromaticity as a point map, invalid where the points are
-            ab = _chromaticity(rgb[k])
+            ab = _chromaticity(img)
             ab[~np.isfinite(np.asarray(pts)).all(-1)] = np.nan
             sep |= boundary_jumps(lab, ab, num_nodes, reach=reach)[2] > color
+        if drop_unknown and concave is not None:
+            known = np.isfinite(conv)
+            lo, hi, sep = lo[known], hi[known], sep[known]
         los.append(lo)
         his.append(hi)
         seps.append(sep)
@@ -218,9 +234,12 @@ def depth_jump_cannot_links(
     ----------
     node_labels, points : per view ``[H, W]`` and ``[H, W, 3]``
     num_nodes : int
-    jump, concave, reach, normal_step
-        What separates two nodes across a boundary pixel pair (see
-        :func:`boundary_separation`); at least one of ``jump`` and ``concave``.
+    jump, concave : float, optional
+        What separates two nodes across a boundary pixel pair: a 3D step over
+        ``jump`` metres, a convexity below ``-concave`` (see
+        :func:`boundary_separation`); at least one of the two.
+    reach, normal_step : int
+        Pixel offsets compared across the boundary; step of the normals.
     fraction : float
         A pair is a cannot-link when at least this fraction of its boundary
         pixel pairs (pooled over views) are separations.

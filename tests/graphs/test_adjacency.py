@@ -63,9 +63,11 @@ def test_colour_edge_is_a_separation():
 def test_min_pairs_and_weight():
     lab = halves(10, 10)
     pts = grid(10, 10, np.full((10, 10), 0.5))
-    es = smooth_adjacency_links([lab], [pts], 2, reach=1, min_pairs=10)
+    es = smooth_adjacency_links([lab], [pts], 2, reach=1, min_pairs=10, concave=None)
     assert es.edge_attr["count"].tolist() == [10] and es.edge_attr["weight"].tolist() == [1.0]
-    assert smooth_adjacency_links([lab], [pts], 2, reach=1, min_pairs=11).num_edges == 0
+    assert smooth_adjacency_links([lab], [pts], 2, reach=1, min_pairs=11, concave=None).num_edges == 0
+    # with the concave test, pairs without normals (normal_step 3 px from the border) are left out
+    assert smooth_adjacency_links([lab], [pts], 2, reach=1, min_pairs=1).edge_attr["count"].tolist() == [4]
 
 
 def test_invalid_points_are_ignored():
@@ -79,7 +81,7 @@ def test_invalid_points_are_ignored():
 def test_adder_registered_and_options_validated():
     g = CorrespondenceGraph.from_masks([np.array([[1, 1, 2, 2]])])
     pts = grid(1, 4, np.zeros((1, 4)))
-    adder = edge_adders.resolve("smooth_adjacency", min_pairs=1, color=None)
+    adder = edge_adders.resolve("smooth_adjacency", min_pairs=1, color=None, concave=None)
     assert isinstance(adder, SmoothAdjacency)
     assert "rgb" in SmoothAdjacency.requires and "points" in SmoothAdjacency.requires
     assert adder(g, Evidence.for_graph(g, points=[pts])).num_edges == 1
@@ -89,7 +91,11 @@ def test_adder_registered_and_options_validated():
         adder(g, Evidence.for_graph(g))
     with pytest.raises(ValueError, match="rgb"):
         SmoothAdjacency(min_pairs=1, color=10.0)(g, Evidence.for_graph(g, points=[pts]))
-    assert SmoothAdjacency(min_pairs=1, color=None)(g, Evidence.for_graph(g, points=[pts])).num_edges == 1
+    assert SmoothAdjacency(min_pairs=1, color=None, concave=None)(g, Evidence.for_graph(g, points=[pts])).num_edges == 1
+    with pytest.raises(ValueError, match="all None"):
+        SmoothAdjacency(jump=None, concave=None, color=None)
+    with pytest.raises(ValueError, match="no separation test"):
+        smooth_adjacency_links([np.array([[0, 1]])], [pts[:, :2]], 2, jump=None, concave=None)
 
 
 def test_depth_repulsion_concave_only():
@@ -103,3 +109,32 @@ def test_depth_repulsion_concave_only():
         depth_jump_cannot_links([lab], [grid(40, 40, step)], 2, jump=None)
     with pytest.raises(ValueError, match="both None"):
         DepthRepulsion(jump=None)
+
+
+def test_crease_next_to_a_depth_hole_is_no_evidence():
+    """Normals are unknown near invalid depth: those boundary pairs are left out, not counted as smooth."""
+    lab = halves(40, 40)
+    x = (np.arange(40) - 19.5) * 0.002
+    valley = np.broadcast_to(0.5 - 0.5 * np.abs(x), (40, 40)).copy()
+    pts = grid(40, 40, valley)
+    assert smooth_adjacency_links([lab], [pts], 2, reach=4, concave=0.1).num_edges == 0
+    holed = pts.copy()
+    holed[:, 15:17] = np.nan  # holes 3-4 px from the seam; the seam pixels keep their depth
+    holed[:, 23:25] = np.nan
+    assert smooth_adjacency_links([lab], [holed], 2, reach=1, concave=0.1, min_pairs=1).num_edges == 0
+
+
+def test_views_are_pooled_and_rgb_is_checked():
+    lab = halves(20, 20)
+    pts = grid(20, 20, np.full((20, 20), 0.5))
+    one = smooth_adjacency_links([lab], [pts], 2, reach=1, concave=None, min_pairs=1)
+    two = smooth_adjacency_links([lab, lab], [pts, pts], 2, reach=1, concave=None, min_pairs=1)
+    skipped = smooth_adjacency_links([lab, lab], [pts, None], 2, reach=1, concave=None, min_pairs=1)
+    assert two.edge_attr["count"].tolist() == [2 * one.edge_attr["count"][0]] and skipped.edge_attr["count"].tolist() == one.edge_attr["count"].tolist()
+    rgb = np.zeros((20, 20, 3), np.uint8)
+    with pytest.raises(ValueError, match=r"expected rgb\[0\] of shape \[20, 20, 3\] and dtype uint8 \(got \[5, 6, 3\] uint8\)"):
+        smooth_adjacency_links([lab], [pts], 2, rgb=[np.zeros((5, 6, 3), np.uint8)])
+    with pytest.raises(ValueError, match="dtype uint8"):
+        smooth_adjacency_links([lab], [pts], 2, rgb=[rgb.astype(np.float32)])
+    with pytest.raises(ValueError, match="one rgb image per view"):
+        smooth_adjacency_links([lab, lab], [pts, pts], 2, rgb=[rgb])

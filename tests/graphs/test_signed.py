@@ -135,7 +135,7 @@ def test_gaec_shape_and_hand_computed():
     assert c.tolist() == [0, 0, 1, 1, 2]  # {0,1} and {2,3} close first; joining them would violate 0-3
 
 
-def test_gaec_sums_parallel_evidence():
+def test_gaec_sums_evidence_over_a_cluster():
     # node 2 has one strong edge to 0 and two weaker edges to the {3, 4} group; 0 and 3 may not join
     ei = np.array([[2, 2, 2, 3], [0, 3, 4, 4]])
     w = [0.9, 0.6, 0.6, 1.0]
@@ -144,6 +144,48 @@ def test_gaec_sums_parallel_evidence():
     assert c[2] == c[3] == c[4] and c[0] != c[2]  # 0.6 + 0.6 > 0.9 once {3, 4} is one cluster
     u = constrained_union_find(ei, 5, weight=w, cannot_link=cl)
     assert u[2] == u[0] and u[2] != u[3]  # edge by edge, the single strong edge wins
+
+
+def test_gaec_parallel_edges_add_up_and_self_loops_are_ignored():
+    # 0-1 twice (0.5 + 0.5 = 1.0) beats the single 1-2 (0.9); 0 and 2 may not join; the self-loop 2-2 is ignored
+    ei = np.array([[0, 0, 1, 2], [1, 1, 2, 2]])
+    c = greedy_additive_contraction(ei, 3, weight=[0.5, 0.5, 0.9, 5.0], cannot_link=[[0], [2]])
+    assert c.tolist() == [0, 0, 1]
+    assert greedy_additive_contraction(ei, 3, weight=[0.4, 0.4, 0.9, 5.0], cannot_link=[[0], [2]]).tolist() == [0, 1, 1]
+    assert greedy_additive_contraction(np.zeros((2, 0), np.int64), 0).tolist() == []
+
+
+def gaec_reference(ei, n, w, cl):
+    """Brute force: recompute every cluster pair's summed weight, join the largest positive one."""
+    lab = list(range(n))
+    forbid = {(min(a, b), max(a, b)) for a, b in cl if a != b}
+    while True:
+        sums = {}
+        for (a, b), x in zip(ei.T.tolist(), w):
+            ca, cb = lab[a], lab[b]
+            if ca != cb:
+                key = (min(ca, cb), max(ca, cb))
+                sums[key] = sums.get(key, 0.0) + x
+        for a, b in forbid:
+            ca, cb = lab[a], lab[b]
+            if ca != cb:
+                sums[(min(ca, cb), max(ca, cb))] = -np.inf
+        best = max(((x, k) for k, x in sums.items() if x > 0), default=None, key=lambda t: t[0])
+        if best is None:
+            return canonical_cluster(np.array(lab, np.int64))
+        ca, cb = best[1]
+        lab = [ca if c == cb else c for c in lab]
+
+
+@settings(max_examples=80, deadline=None)
+@given(graphs)
+def test_gaec_equals_brute_force_when_sums_are_distinct(data):
+    n, edges, cl, _ = data
+    ei = as_ei(edges)
+    # distinct powers of two: every sum of a subset of edges is unique, so the greedy order has no ties
+    w = 2.0 ** -np.arange(1, ei.shape[1] + 1)
+    got = greedy_additive_contraction(ei, n, weight=w, cannot_link=as_ei(cl))
+    assert got.tolist() == gaec_reference(ei, n, w.tolist(), cl).tolist()
 
 
 def test_gaec_bad_weights():
