@@ -34,8 +34,8 @@ __all__ = ["boundary_jumps", "boundary_separation", "depth_jump_cannot_links", "
 
 
 def boundary_jumps(
-    labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int = 3, normals: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int = 3, normals: np.ndarray | None = None, colors: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs touching in one view and the 3D distances across their boundary.
 
     Parameters
@@ -50,6 +50,8 @@ def boundary_jumps(
         often leave a thin unlabelled seam at a depth edge).
     normals : float ``[H, W, 3]``, optional
         Unit normals pointing toward the camera; enables ``convexity``.
+    colors : float ``[H, W, C]``, optional
+        Per-pixel colour coordinates; enables ``color_dist``.
 
     Returns
     -------
@@ -61,6 +63,8 @@ def boundary_jumps(
         ``(n_p - n_q) . (x_p - x_q) / |x_p - x_q|`` (LCCP's test): positive
         across a convex edge (a ridge), negative across a concave one (where
         two objects meet), about 0 on a smooth surface; NaN without normals.
+    color_dist : float64 ``[P]``
+        Euclidean distance of the two pixels' ``colors``; NaN without colours.
 
     Notes
     -----
@@ -68,7 +72,7 @@ def boundary_jumps(
 
     Examples
     --------
-    >>> lo, hi, d, c = boundary_jumps(np.array([[0, 1]]), np.zeros((1, 2, 3)), 2, reach=1)
+    >>> lo, hi, d, c, _ = boundary_jumps(np.array([[0, 1]]), np.zeros((1, 2, 3)), 2, reach=1)
     >>> lo.tolist(), hi.tolist(), d.tolist()
     ([0], [1], [0.0])
     """
@@ -77,11 +81,14 @@ def boundary_jumps(
     if pts.shape != (*lab.shape, 3):
         raise ValueError(f"expected points of shape [{lab.shape[0]}, {lab.shape[1]}, 3] (got {list(pts.shape)})")
     nrm = np.full(pts.shape, np.nan, np.float32) if normals is None else np.asarray(normals, np.float32)
-    los, his, ds, cs = [], [], [], []
+    col = np.full((*lab.shape, 1), np.nan) if colors is None else np.asarray(colors, np.float64)
+    if col.ndim != 3 or col.shape[:2] != lab.shape:
+        raise ValueError(f"expected colors of shape [{lab.shape[0]}, {lab.shape[1]}, C] (got {list(col.shape)})")
+    los, his, ds, cs, ks = [], [], [], [], []
     for d in range(1, int(reach) + 1):
-        for a, b, pa, pb, na, nb in (
-            (lab[:, :-d], lab[:, d:], pts[:, :-d], pts[:, d:], nrm[:, :-d], nrm[:, d:]),
-            (lab[:-d, :], lab[d:, :], pts[:-d, :], pts[d:, :], nrm[:-d, :], nrm[d:, :]),
+        for a, b, pa, pb, na, nb, ca, cb in (
+            (lab[:, :-d], lab[:, d:], pts[:, :-d], pts[:, d:], nrm[:, :-d], nrm[:, d:], col[:, :-d], col[:, d:]),
+            (lab[:-d, :], lab[d:, :], pts[:-d, :], pts[d:, :], nrm[:-d, :], nrm[d:, :], col[:-d, :], col[d:, :]),
         ):
             ok = (a >= 0) & (b >= 0) & (a != b)
             if not ok.any():
@@ -96,10 +103,11 @@ def boundary_jumps(
             his.append(np.maximum(x, y))
             ds.append(dist[fin])
             cs.append(conv[fin])
+            ks.append(np.linalg.norm(ca[ok][fin] - cb[ok][fin], axis=1))
     if not los:
         z = np.zeros(0, np.int64)
-        return z, z, np.zeros(0), np.zeros(0)
-    return np.concatenate(los), np.concatenate(his), np.concatenate(ds), np.concatenate(cs)
+        return z, z, np.zeros(0), np.zeros(0), np.zeros(0)
+    return np.concatenate(los), np.concatenate(his), np.concatenate(ds), np.concatenate(cs), np.concatenate(ks)
 
 
 def boundary_separation(
@@ -175,20 +183,19 @@ def boundary_separation(
         if pts is None:
             continue
         nrm = None if concave is None else -point_normals(np.asarray(pts, np.float32), normal_step)
-        lo, hi, d, conv = boundary_jumps(lab, pts, num_nodes, reach=reach, normals=nrm)
+        img = None
+        if use_color:
+            img = np.asarray(rgb[k])  # type: ignore[index]
+            if img.shape != (*np.shape(lab), 3) or img.dtype != np.uint8:
+                raise ValueError(f"expected rgb[{k}] of shape [{np.shape(lab)[0]}, {np.shape(lab)[1]}, 3] and dtype uint8 (got {list(img.shape)} {img.dtype})")
+        lo, hi, d, conv, cdist = boundary_jumps(lab, pts, num_nodes, reach=reach, normals=nrm, colors=None if img is None else _chromaticity(img))
         sep = np.zeros(d.shape, bool)
         if jump is not None:
             sep |= d > jump
         if concave is not None:
             sep |= conv < -concave
-        if use_color:
-            img = np.asarray(rgb[k])  # type: ignore[index]
-            if img.shape != (*np.shape(lab), 3) or img.dtype != np.uint8:
-                raise ValueError(f"expected rgb[{k}] of shape [{np.shape(lab)[0]}, {np.shape(lab)[1]}, 3] and dtype uint8 (got {list(img.shape)} {img.dtype})")
-            # the same pixel pairs in the same order: chromaticity as a point map, invalid where the points are
-            ab = _chromaticity(img)
-            ab[~np.isfinite(np.asarray(pts)).all(-1)] = np.nan
-            sep |= boundary_jumps(lab, ab, num_nodes, reach=reach)[2] > color
+        if img is not None:
+            sep |= cdist > color
         if drop_unknown and concave is not None:
             known = np.isfinite(conv)
             lo, hi, sep = lo[known], hi[known], sep[known]
@@ -206,13 +213,11 @@ def boundary_separation(
 
 
 def _chromaticity(rgb: np.ndarray) -> np.ndarray:
-    """CIE a*, b* (OpenCV's 8-bit scale, blurred with sigma 1 px) as a float64 ``[H, W, 3]`` map with a zero third channel."""
+    """CIE a*, b* (OpenCV's 8-bit scale, blurred with sigma 1 px) as a float64 ``[H, W, 2]`` map."""
     import cv2
 
     lab = cv2.GaussianBlur(cv2.cvtColor(np.ascontiguousarray(rgb, np.uint8), cv2.COLOR_RGB2LAB).astype(np.float32), (0, 0), 1.0)
-    out = np.zeros((*lab.shape[:2], 3))
-    out[..., :2] = lab[..., 1:]
-    return out
+    return lab[..., 1:].astype(np.float64)
 
 
 def depth_jump_cannot_links(

@@ -31,6 +31,7 @@ __all__ = [
     "core_attach_contraction",
     "edge_strength",
     "greedy_additive_contraction",
+    "signed_edges",
     "split_signed",
     "ConstrainedUnionFindContraction",
     "CoreAttachContraction",
@@ -239,6 +240,31 @@ def split_signed(edge_index: Any, edge_attr: Mapping[str, Any] | None) -> tuple[
     return ~(s < 0), s < 0
 
 
+def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What every signed contractor reads from a graph's edges.
+
+    Returns
+    -------
+    attract : int64 ``[2, A]``
+        Edges with ``sign >= 0`` or no sign.
+    strength : float64 ``[A]``
+        Their :func:`edge_strength`.
+    cannot_link : int64 ``[2, C]``
+        Edges with ``sign < 0``.
+
+    Examples
+    --------
+    >>> a, s, c = signed_edges(np.array([[0, 1], [1, 2]]), 3, {"sign": np.array([1.0, -1.0]), "weight": np.array([0.3, 0.9])})
+    >>> a.tolist(), s.tolist(), c.tolist()
+    ([[0], [1]], [1.0], [[1], [2]])
+    """
+    ei = as_edge_index(edge_index, num_nodes)
+    attrs = dict(edge_attr or {})
+    pos, neg = split_signed(ei, attrs)
+    strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
+    return ei[:, pos], strength, ei[:, neg]
+
+
 class ConstrainedUnionFindContraction:
     """Contractor: :func:`constrained_union_find` on a graph's signed edges.
 
@@ -257,11 +283,8 @@ class ConstrainedUnionFindContraction:
     uses_edge_attr = True
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
-        ei = as_edge_index(edge_index, num_nodes)
-        attrs = dict(edge_attr or {})
-        pos, neg = split_signed(ei, attrs)
-        strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
-        return constrained_union_find(ei[:, pos], num_nodes, weight=strength, cannot_link=ei[:, neg])
+        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
+        return constrained_union_find(attract, num_nodes, weight=strength, cannot_link=cannot)
 
 
 def core_attach_contraction(edge_index: Any, num_nodes: int, *, core: Any, weight: Any = None, cannot_link: Any = None) -> np.ndarray:
@@ -362,13 +385,10 @@ class CoreAttachContraction:
         edge_attr: Mapping[str, Any] | None = None,
         node_attr: Mapping[str, Any] | None = None,
     ) -> np.ndarray:
-        ei = as_edge_index(edge_index, num_nodes)
-        attrs = dict(edge_attr or {})
-        pos, neg = split_signed(ei, attrs)
-        strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
+        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
         area = None if node_attr is None else node_attr.get("area")
         core = np.ones(num_nodes, bool) if area is None else np.asarray(area, np.float64) >= self.min_area
-        return core_attach_contraction(ei[:, pos], num_nodes, core=core, weight=strength, cannot_link=ei[:, neg])
+        return core_attach_contraction(attract, num_nodes, core=core, weight=strength, cannot_link=cannot)
 
 
 class GreedyAdditiveContraction:
@@ -389,8 +409,5 @@ class GreedyAdditiveContraction:
     uses_edge_attr = True
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
-        ei = as_edge_index(edge_index, num_nodes)
-        attrs = dict(edge_attr or {})
-        pos, neg = split_signed(ei, attrs)
-        strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
-        return greedy_additive_contraction(ei[:, pos], num_nodes, weight=strength, cannot_link=ei[:, neg])
+        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
+        return greedy_additive_contraction(attract, num_nodes, weight=strength, cannot_link=cannot)

@@ -13,15 +13,20 @@ def grid(h, w, z):
 def test_boundary_jumps_shape_and_values():
     lab = np.array([[0, 0, 1, 1]])
     pts = grid(1, 4, np.array([[0.0, 0.0, 0.1, 0.1]]))
-    lo, hi, d, c = boundary_jumps(lab, pts, 2, reach=2)
-    assert lo.shape == hi.shape == d.shape == c.shape == (3,)  # offsets 1 (one pair) and 2 (two pairs)
+    lo, hi, d, c, k = boundary_jumps(lab, pts, 2, reach=2)
+    assert lo.shape == hi.shape == d.shape == c.shape == k.shape == (3,)  # offsets 1 (one pair) and 2 (two pairs)
     assert set(lo.tolist()) == {0} and set(hi.tolist()) == {1}
-    assert np.all(d > 0.09) and np.all(np.isnan(c))
+    assert np.all(d > 0.09) and np.all(np.isnan(c)) and np.all(np.isnan(k))
+    colors = np.array([[[0.0, 0.0], [3.0, 4.0], [6.0, 8.0], [6.0, 8.0]]])
+    k = boundary_jumps(lab, pts, 2, reach=2, colors=colors)[4]
+    assert sorted(k.tolist()) == [5.0, 5.0, 10.0]  # pixels (1, 2), (0, 2), (1, 3)
 
 
 def test_boundary_jumps_bad_points():
     with pytest.raises(ValueError, match=r"points of shape \[1, 2, 3\]"):
         boundary_jumps(np.zeros((1, 2), int), np.zeros((2, 2, 3)), 1)
+    with pytest.raises(ValueError, match=r"colors of shape \[1, 2, C\] \(got \[2, 2, 3\]\)"):
+        boundary_jumps(np.zeros((1, 2), int), np.zeros((1, 2, 3)), 1, colors=np.zeros((2, 2, 3)))
 
 
 def test_step_is_cannot_link_flat_is_not():
