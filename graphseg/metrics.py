@@ -131,15 +131,18 @@ def mean_iou(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray], points: Seque
     0.3333333333333333
     """
     valid = [np.isfinite(np.asarray(p)).all(-1) for p in points]
-    table, gt_ids, pred_ids = contingency(pred, gt, valid)
-    inter = table[1:, 1:].astype(np.float64)  # row/col 0 (id 0) is "none": ids are sorted and start with 0
-    if inter.shape[0] == 0:
+    ious = _iou_table(contingency(pred, gt, valid)[0])
+    if ious.shape[0] == 0:
         return None
-    if inter.shape[1] == 0:
-        return 0.0
+    return float(ious.max(axis=1).mean()) if ious.shape[1] else 0.0
+
+
+def _iou_table(table: np.ndarray) -> np.ndarray:
+    """IoU ``[G, P]`` of every ground-truth object with every predicted object, from :func:`contingency`'s table
+    (row/column 0 is id 0, "none": ids are sorted and start with 0)."""
+    inter = table[1:, 1:].astype(np.float64)
     union = table[1:].sum(1)[:, None] + table[:, 1:].sum(0)[None, :] - inter
-    ious = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
-    return float(ious.max(axis=1).mean())
+    return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
 def evaluate(
@@ -191,10 +194,10 @@ def evaluate(
     psets = sets(pred, pred_ids)
     ptrees = {}
     rows = []
+    iou_all = _iou_table(table)  # g_obj = 1..G and p_obj = 1..P: id 0 is always first
     for gi in g_obj:
         inter = table[gi, p_obj].astype(np.float64)
-        union = gt_size[gi] + pred_size[p_obj] - inter
-        ious = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+        ious = iou_all[gi - 1]
         row: dict[str, Any] = {"id": int(gt_ids[gi]), "pixels": int(gt_size[gi])}
         if names and int(gt_ids[gi]) in names:
             row["name"] = names[int(gt_ids[gi])]
