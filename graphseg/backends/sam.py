@@ -368,8 +368,8 @@ class SamOnnxSegmenter(ModelBackend):
             for inp in self.constant_inputs:
                 dims = [d if isinstance(d, int) else (b if i == 0 else 1) for i, d in enumerate(inp.shape)]
                 feed[inp.name] = np.zeros(dims, _np_type(self.decoder, inp.name))
-            res = dict(zip([d.name for d in self.decoder.get_outputs()], self.decoder.run([self.masks_output, self.iou_output], feed)))
-            return res[self.masks_output], res[self.iou_output]
+            logits, iou = self.decoder.run([self.masks_output, self.iou_output], feed)  # in the order asked for
+            return logits, iou
 
         def predict(points: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             if o.batch_prompts:

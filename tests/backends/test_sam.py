@@ -148,6 +148,23 @@ def test_sam_onnx_one_prompt_at_a_time_and_renamed_outputs(onnx_pair, image):
     assert np.array_equal(a.masks, b.masks) and np.allclose(a.iou, b.iou, atol=1e-5)
 
 
+def test_sam_onnx_decoder_output_order_does_not_matter(onnx_pair, image, tmp_path):
+    """A decoder that declares its IoU output before its masks gives the same proposals."""
+    import onnx
+
+    enc, dec = onnx_pair
+    model = onnx.load(str(dec))
+    outs = list(model.graph.output)
+    del model.graph.output[:]
+    model.graph.output.extend(outs[::-1])
+    assert [o.name for o in model.graph.output] != [o.name for o in outs]
+    onnx.save(model, str(tmp_path / "dec_reversed.onnx"))
+    opts = {k: v for k, v in FAST.items() if k != "image_size"}
+    a = segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(dec), **opts).proposals(View("0", image))
+    b = segmenters.resolve("sam-onnx", encoder=str(enc), decoder=str(tmp_path / "dec_reversed.onnx"), **opts).proposals(View("0", image))
+    assert np.array_equal(a.masks, b.masks) and np.allclose(a.iou, b.iou, atol=1e-6)
+
+
 def test_sam_onnx_bad_names_and_missing_files(onnx_pair, tmp_path):
     enc, dec = onnx_pair
     with pytest.raises(SceneError, match="decoder has no input 'coords'; its inputs: image_embed, "):
