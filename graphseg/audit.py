@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from .graphs.signed import split_signed
+
 __all__ = [
     "mask_gt_counts",
     "majority",
@@ -169,9 +171,8 @@ def lift_edges(graphs: Sequence[Any], base_area: np.ndarray) -> tuple[np.ndarray
     for s, g in enumerate(graphs):
         st = g.edge_attr.get("stage")
         own = np.flatnonzero(np.asarray(st) == s) if st is not None else np.arange(g.num_edges)
-        sign = g.edge_attr.get("sign")
-        if sign is not None:  # cannot-links join nothing
-            own = own[~(np.asarray(sign, np.float64)[own] < 0)]
+        attract, _ = split_signed(g.edge_index, g.edge_attr)
+        own = own[attract[own]]  # cannot-links join nothing
         node = g.members["node"]
         # representative member of each node: its largest input mask
         order = np.lexsort((-base_area, node))
@@ -322,8 +323,7 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         node_obj, _ = majority(node_counts)
         st = g.edge_attr.get("stage")
         own = np.flatnonzero(np.asarray(st) == s) if st is not None else np.arange(g.num_edges)
-        sign = g.edge_attr.get("sign")
-        repel = np.zeros(g.num_edges, bool) if sign is None else np.asarray(sign, np.float64) < 0
+        _, repel = split_signed(g.edge_index, g.edge_attr)
         # repulsive edges (cannot-links) are wrong when they join masks of the same object
         rep = own[repel[own]]
         ro = node_obj[g.edge_index[:, rep]]

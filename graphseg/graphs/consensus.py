@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
-from .pixel_match import lookup_pixels
+from .pixel_match import lookup_pixels, pair_counts
 
 __all__ = ["containers", "consensus_pairs", "view_consensus_edges", "ViewConsensus"]
 
@@ -89,8 +89,7 @@ def containers(
     for view, parts in hist.items():
         src = np.concatenate([p[0] for p in parts])
         dst = np.concatenate([p[1] for p in parts])
-        key, cnt = np.unique(src * num_nodes + dst, return_counts=True)
-        s, d = np.divmod(key, num_nodes)
+        s, d, cnt = pair_counts(src, dst, max(num_nodes, 1))
         tot = np.bincount(s, weights=cnt, minlength=num_nodes)
         order = np.lexsort((-cnt, s))
         first = np.ones(order.size, bool)

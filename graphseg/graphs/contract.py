@@ -19,9 +19,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel
 
-from .coalesce import combine_keys, group_by_key
+from .coalesce import combine_keys
+from .criterion import NoOptions
 from .graph import as_edge_index
 
 __all__ = [
@@ -84,7 +85,9 @@ def _dedupe(a: np.ndarray, b: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarra
         return a, b
     lo = np.minimum(a, b).astype(np.int64)
     hi = np.maximum(a, b).astype(np.int64)
-    keys = group_by_key(combine_keys([lo, hi], [m, m]), num_keys=m * m).keys
+    seen = np.zeros(m * m, bool)  # m * m is bounded above: a bitmap is the cheapest set
+    seen[combine_keys([lo, hi], [m, m])] = True
+    keys = np.flatnonzero(seen)
     lo, hi = np.divmod(keys, m)
     return lo.astype(a.dtype), hi.astype(a.dtype)
 
@@ -240,10 +243,6 @@ def scipy_contraction(edge_index: Any, num_nodes: int) -> np.ndarray:
     return canonical_cluster(labels)
 
 
-class _NoOptions(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
 class StarContraction:
     """Randomized star contraction as a contractor object (registered as ``star``).
 
@@ -265,7 +264,7 @@ class StarContraction:
     """
 
     name = "star"
-    Options = _NoOptions
+    Options = NoOptions
     uses_edge_attr = False
 
     def __init__(self, options: BaseModel | None = None) -> None:
@@ -281,7 +280,7 @@ class UnionFindContraction:
     """Union-find contraction as a contractor object (``rng`` is ignored)."""
 
     name = "union_find"
-    Options = _NoOptions
+    Options = NoOptions
     uses_edge_attr = False
 
     def __init__(self, options: BaseModel | None = None) -> None:
@@ -295,7 +294,7 @@ class ScipyContraction:
     """scipy csgraph connected components as a contractor object (``rng`` ignored)."""
 
     name = "scipy"
-    Options = _NoOptions
+    Options = NoOptions
     uses_edge_attr = False
 
     def __init__(self, options: BaseModel | None = None) -> None:

@@ -31,7 +31,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from .coalesce import combine_keys, group_by_key
+from .coalesce import combine_keys, count_keys, group_by_key
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
@@ -59,10 +59,11 @@ def pair_counts(a: np.ndarray, b: np.ndarray, n: int) -> tuple[np.ndarray, np.nd
     """
     a = np.asarray(a, np.int64)
     b = np.asarray(b, np.int64)
-    g = group_by_key(combine_keys([a, b], [n, n]), num_keys=n * n if n * n < 2**62 else None)
     if n * n < 2**62:
-        return g.keys // n, g.keys % n, g.counts
-    return a[g.first], b[g.first], g.counts  # pragma: no cover - rank keys for astronomically many nodes
+        keys, counts = count_keys(combine_keys([a, b], [n, n]), num_keys=n * n)
+        return keys // n, keys % n, counts
+    g = group_by_key(combine_keys([a, b], [n, n]))  # pragma: no cover - rank keys for astronomically many nodes
+    return a[g.first], b[g.first], g.counts  # pragma: no cover
 
 
 def lookup_pixels(image: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

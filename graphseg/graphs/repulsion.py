@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ..geometry import point_normals
+from .coalesce import coalesce
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
@@ -204,12 +205,8 @@ def boundary_separation(
         seps.append(sep)
     if not los or not sum(x.size for x in los):
         return np.zeros((2, 0), np.int64), np.zeros(0, np.int64), np.zeros(0)
-    key = np.concatenate(los) * n + np.concatenate(his)
-    uk, inv = np.unique(key, return_inverse=True)
-    count = np.bincount(inv)
-    separated = np.bincount(inv, weights=np.concatenate(seps).astype(np.float64)) / count
-    u, v = np.divmod(uk, n)
-    return np.stack([u, v]).astype(np.int64), count.astype(np.int64), separated
+    ei, attr, _ = coalesce(np.stack([np.concatenate(los), np.concatenate(his)]), {"sep": np.concatenate(seps).astype(np.float64)}, n, reduce={"sep": "mean"})
+    return ei, np.asarray(attr["multiplicity"], np.int64), np.asarray(attr["sep"], np.float64)
 
 
 def _chromaticity(rgb: np.ndarray) -> np.ndarray:

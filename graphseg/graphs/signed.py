@@ -344,12 +344,11 @@ def core_attach_contraction(edge_index: Any, num_nodes: int, *, core: Any, weigh
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    u = np.concatenate([np.arange(n), ends[pick]])
-    v = np.concatenate([base, other[pick]])  # node -> its core group's first node id is not needed: link node to its group label node
-    # link every node to a representative of its core group, then leaves to their pick
+    # link every node to a representative (first node) of its core group, then leaves to their pick
     rep = np.zeros(int(base.max(initial=-1)) + 1, np.int64)
     rep[base[::-1]] = np.arange(n)[::-1]
-    v[:n] = rep[base]
+    u = np.concatenate([np.arange(n), ends[pick]])
+    v = np.concatenate([rep[base], other[pick]])
     adj = coo_matrix((np.ones(u.size), (u, v)), shape=(n, n))
     _, labels = connected_components(adj, directed=False)
     return canonical_cluster(labels)

@@ -36,6 +36,7 @@ import numpy as np
 from ..config import Config
 from ..graphs import CorrespondenceGraph, Evidence, coarsen, node_point_sets
 from ..graphs.contract import canonical_cluster
+from ..graphs.signed import split_signed
 from ..result import Result
 from ..scene import Matches, Scene, SceneError
 from .background import background_masks
@@ -232,9 +233,8 @@ def segment(
             extra = {"node_attr": dict(with_edges.node_attr)} if getattr(contractor, "uses_node_attr", False) else {}
             cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen, edge_attr=dict(with_edges.edge_attr), **extra)
         else:  # plain components: repulsive (sign < 0) edges are not links
-            sign = with_edges.edge_attr.get("sign")
-            attract = with_edges.edge_index if sign is None else with_edges.edge_index[:, ~(np.asarray(sign, np.float64) < 0)]
-            cluster = contractor(attract, with_edges.num_nodes, rng=gen)
+            attract, _ = split_signed(with_edges.edge_index, with_edges.edge_attr)
+            cluster = contractor(with_edges.edge_index[:, attract], with_edges.num_nodes, rng=gen)
         with_edges.meta["stage"] = s
         stage_graphs.append(with_edges)
         current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
