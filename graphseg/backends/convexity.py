@@ -29,7 +29,7 @@ import numpy as np
 
 from ..geometry import point_normals
 from ..scene import SceneError, View
-from .segmenters import geometric_segments
+from .segmenters import check_geometric_options, geometric_segments
 
 __all__ = ["concave_creases", "split_concave", "ConvexitySegmenter"]
 
@@ -137,6 +137,7 @@ class ConvexitySegmenter:
     name = "convexity"
 
     def __init__(self, seed: int | None = 0, threshold: float = 0.2, normal_step: int = 4, reach: int = 3, min_area: int = 200, **options: Any) -> None:
+        check_geometric_options(options, "convexity", extra=("threshold", "normal_step", "reach", "min_area"))
         self.seed = seed
         self.split = {"threshold": threshold, "normal_step": normal_step, "reach": reach, "min_area": min_area}
         self.options = options

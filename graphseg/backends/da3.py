@@ -32,19 +32,19 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..registry import MissingDependencyError
 from ..scene import Scene, SceneError, backproject
 from .align import Alignment, lift_from_alignment
+from .dino import patch_grid
+from .sam import IMAGENET_MEAN, IMAGENET_STD
 
 __all__ = ["DA3Lifter", "load_da3", "model_size_14", "INSTALL"]
 
 INSTALL = 'pip install "graphseg[da3]" && pip install --no-deps depth-anything-3==0.1.1'
-_MEAN = np.array([0.485, 0.456, 0.406], np.float32)
-_STD = np.array([0.229, 0.224, 0.225], np.float32)
+_MEAN = np.array(IMAGENET_MEAN, np.float32)
+_STD = np.array(IMAGENET_STD, np.float32)
 
 
 def model_size_14(shape: tuple[int, int], size: int) -> tuple[int, int]:
     """``(h, w)``: long side near ``size``, both multiples of DA3's patch size 14, aspect kept."""
-    H, W = shape
-    s = size / max(H, W)
-    return max(14, int(round(H * s / 14)) * 14), max(14, int(round(W * s / 14)) * 14)
+    return patch_grid(shape, size, 14)
 
 
 def _import(module: str) -> Any:

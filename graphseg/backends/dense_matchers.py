@@ -282,8 +282,10 @@ def _tensor(rgb: np.ndarray, size: tuple[int, int] | None, device: str, normaliz
     if size is not None and (x.shape[-1], x.shape[-2]) != tuple(size):
         x = F.interpolate(x, (size[1], size[0]), mode="bicubic", align_corners=False, antialias=True).clamp(0, 1)
     if normalize:
-        mean = torch.tensor([0.485, 0.456, 0.406])[:, None, None]
-        std = torch.tensor([0.229, 0.224, 0.225])[:, None, None]
+        from .sam import IMAGENET_MEAN, IMAGENET_STD
+
+        mean = torch.tensor(IMAGENET_MEAN)[:, None, None]
+        std = torch.tensor(IMAGENET_STD)[:, None, None]
         x = (x - mean) / std
     return x.to(device)
 

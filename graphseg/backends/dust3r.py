@@ -41,6 +41,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..registry import MissingDependencyError, require
 from ..scene import Scene, SceneError
 from .align import PairPointMaps, global_align, lift_from_alignment
+from .dino import patch_grid
 
 __all__ = ["DUSt3RLifter", "ROLES", "preprocess", "model_size"]
 
@@ -72,9 +73,7 @@ def model_size(shape: tuple[int, int], size: int, patch: int) -> tuple[int, int]
     >>> model_size((480, 640), 512, 16)
     (384, 512)
     """
-    H, W = shape
-    s = size / max(H, W)
-    return max(patch, int(round(H * s / patch)) * patch), max(patch, int(round(W * s / patch)) * patch)
+    return patch_grid(shape, size, patch)
 
 
 def preprocess(rgb: np.ndarray, hw: tuple[int, int]) -> np.ndarray:

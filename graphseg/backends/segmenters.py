@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import os
 import zlib
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +49,7 @@ from .parts import split_mask
 __all__ = [
     "SuperpixelSegmenter",
     "GeometricSegmenter",
+    "check_geometric_options",
     "PrecomputedSegmenter",
     "OraclePartsSegmenter",
     "geometric_segments",
@@ -312,19 +314,36 @@ def _merge_regions(region: np.ndarray, count: np.ndarray, mean: np.ndarray, a: n
     return parent[region]
 
 
+def check_geometric_options(options: Mapping[str, Any], segmenter: str, extra: Sequence[str] = ()) -> None:
+    """Raise ``TypeError`` naming the first option that :func:`geometric_segments` does not take.
+
+    Segmenters call it in their constructor, so a typo is reported before any image is read.
+
+    Examples
+    --------
+    >>> check_geometric_options({"min_area": 10}, "geometric")
+    >>> try:
+    ...     check_geometric_options({"min_aera": 10}, "geometric")
+    ... except TypeError as err:
+    ...     print(str(err)[:56])
+    unknown option 'min_aera' of the geometric segmenter; va
+    """
+    import inspect
+
+    params = inspect.signature(geometric_segments).parameters
+    valid = [*extra, *(k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k != "rng")]
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise TypeError(f"unknown option {unknown[0]!r} of the {segmenter} segmenter; valid options: {', '.join(valid)}")
+
+
 class GeometricSegmenter:
     """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options)."""
 
     name = "geometric"
 
     def __init__(self, seed: int | None = 0, **options: Any) -> None:
-        import inspect
-
-        params = inspect.signature(geometric_segments).parameters
-        valid = [k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k != "rng"]
-        unknown = sorted(set(options) - set(valid))
-        if unknown:  # checked here, before any image is read, not when the first view is segmented
-            raise TypeError(f"unknown option {unknown[0]!r} of the geometric segmenter; valid options: {', '.join(valid)}")
+        check_geometric_options(options, "geometric")
         self.seed = seed
         self.options = options
 

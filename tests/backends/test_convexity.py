@@ -44,3 +44,9 @@ def test_registered_segmenter_runs_on_a_view():
     rgb = np.full((40, 40, 3), 128, np.uint8)
     out = seg(View("v", rgb, points=pts))
     assert out.shape == (40, 40)
+
+
+def test_unknown_option_is_reported_when_built():
+    with pytest.raises(TypeError, match="unknown option 'bogus' of the convexity segmenter; valid options: threshold, normal_step, reach, min_area, background"):
+        segmenters.resolve("convexity", bogus=1)
+    assert segmenters.resolve("convexity", threshold=0.3, min_area=50, color_regions=None).split["threshold"] == 0.3
