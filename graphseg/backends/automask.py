@@ -244,16 +244,16 @@ def remove_small_regions(mask: np.ndarray, min_area: int, mode: str) -> tuple[np
     mask = np.asarray(mask, bool)
     correct_holes = mode == "holes"
     working = (correct_holes ^ mask).astype(np.uint8)
-    n, regions, stats, _ = cv2.connectedComponentsWithStats(working, connectivity=8)
+    _, regions, stats, _ = cv2.connectedComponentsWithStats(working, connectivity=8)
     sizes = stats[1:, cv2.CC_STAT_AREA]
-    small = [i + 1 for i, s in enumerate(sizes) if s < min_area]
-    if not small:
+    small = np.flatnonzero(sizes < min_area) + 1
+    if not small.size:
         return mask.copy(), False
     if correct_holes:
         out = mask | np.isin(regions, small)
     else:
-        keep = [i for i in range(1, n) if i not in small] or [int(np.argmax(sizes)) + 1]
-        out = np.isin(regions, keep)
+        keep = np.flatnonzero(sizes >= min_area) + 1
+        out = np.isin(regions, keep if keep.size else [int(np.argmax(sizes)) + 1])
     return out, True
 
 

@@ -214,11 +214,14 @@ def run_batch(
 
         bar = tqdm(total=len(todo), desc="batch", unit="task")
 
+    failed = 0
+
     def on_record(rec: dict[str, Any]) -> None:
+        nonlocal failed
         new.append(rec)
         records.append(rec)
+        failed += rec["status"] != "ok"
         if bar is not None:
-            failed = sum(r["status"] != "ok" for r in new)
             bar.set_postfix(done=len(new) - failed, failed=failed, left=len(todo) - len(new), refresh=False)
             bar.update(1)
 

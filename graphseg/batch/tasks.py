@@ -271,14 +271,14 @@ def make_tasks(
     for s in scenes:
         stem = _safe(Path(s.path).name)
         names[stem] = names.get(stem, 0) + 1
+    digests = [config_digest(c.config) for c in configs]  # once per configuration, not per scene
     tasks = []
     for s in scenes:
         sd = scene_digest(s.path)
         label = _safe(Path(s.path).name)
         if names[label] > 1:
             label = f"{label}-{hashlib.sha256(str(Path(s.path).resolve()).encode()).hexdigest()[:6]}"
-        for c in configs:
-            cd = config_digest(c.config)
+        for c, cd in zip(configs, digests):
             for n in num_views:
                 views = "all" if n is None else str(int(n))
                 key = hashlib.sha256(f"{sd}|{cd}|{json.dumps(c.backends, sort_keys=True)}|{views}".encode()).hexdigest()[:20]
