@@ -308,14 +308,15 @@ def _batched_directed(
         gap = np.maximum(0.0, np.maximum(boxes[0][dst] - c, c - boxes[1][dst]))
         alive = np.flatnonzero(np.einsum("ij,ij->i", gap, gap) <= tau * (1 + 1e-6))
         if alive.size < src.size:
-            out[alive] = _batched_directed(sets, src[alive], dst[alive], tau)
+            out[alive] = _batched_directed(sets, src[alive], dst[alive], tau, boxes=boxes)
             return out
     order = np.argsort(dst, kind="stable")
     bounds = np.flatnonzero(np.r_[True, dst[order][1:] != dst[order][:-1], True])
     for a, b in zip(bounds[:-1], bounds[1:]):
         idx = order[a:b]
-        target_pts = sets[int(dst[idx[0]])]
-        lo, hi = target_pts.min(0), target_pts.max(0)
+        t = int(dst[idx[0]])
+        target_pts = sets[t]
+        lo, hi = (boxes[0][t], boxes[1][t]) if boxes is not None else (target_pts.min(0), target_pts.max(0))
         chunks = [sets[int(s)] for s in src[idx]]
         lens = np.array([len(c) for c in chunks])
         x = np.concatenate(chunks)
