@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from .graphs.signed import split_signed
+from .method.masks import paint_masks
 
 __all__ = [
     "mask_gt_counts",
@@ -48,7 +49,6 @@ __all__ = [
     "impure_masks",
     "lift_edges",
     "min_cut_edges",
-    "majority_labels",
     "audit",
     "format_audit",
     "audit_html",
@@ -230,44 +230,6 @@ def min_cut_edges(edge_index: np.ndarray, side_a: np.ndarray, side_b: np.ndarray
     return np.asarray(cut, np.int64)
 
 
-def majority_labels(masks: Sequence[np.ndarray], mask_view: np.ndarray, mask_id: np.ndarray, mask_object: np.ndarray) -> list[np.ndarray]:
-    """Label images in which every mask carries its majority ground-truth object (the majority grouping).
-
-    Parameters
-    ----------
-    masks : list of int ``[H, W]``
-        Composed mask images, ``mask_id + 1`` (0 = none).
-    mask_view, mask_id : int ``[M]``
-        View and id of every mask.
-    mask_object : int ``[M]``
-        Its majority object (0 = background), e.g. from :func:`majority`.
-
-    Returns
-    -------
-    list of int64 ``[H, W]``
-        Per view; 0 = none or background.
-
-    Notes
-    -----
-    O(total pixels).
-
-    Examples
-    --------
-    >>> [m.tolist() for m in majority_labels([np.array([[0, 1, 2]])], np.array([0, 0]), np.array([0, 1]), np.array([7, 0]))]
-    [[[0, 7, 0]]]
-    """
-    out = []
-    for v, lab in enumerate(masks):
-        lab = np.asarray(lab)
-        sel = np.asarray(mask_view) == v
-        lut = np.zeros(int(lab.max(initial=0)) + 1, np.int64)
-        ids = np.asarray(mask_id)[sel] + 1
-        keep = ids < lut.size
-        lut[ids[keep]] = np.asarray(mask_object)[sel][keep]
-        out.append(lut[lab])
-    return out
-
-
 def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.2, max_listed: int = 50) -> dict[str, Any]:
     """Audit a run's edges against the scene's ground-truth instance images.
 
@@ -406,7 +368,7 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
     if all(p is not None for p in pts):
         from .metrics import mean_iou
 
-        labels = majority_labels(g0.masks, mem["view"], mem["mask_id"], base_obj)
+        labels = paint_masks(g0.masks, mem["view"], mem["mask_id"], base_obj)
         value = mean_iou(labels, [np.asarray(g) for g in gt], [np.asarray(p) for p in pts])
         grouping = None if value is None else round(value, 4)  # None: no ground-truth object
     summary = {

@@ -672,7 +672,9 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as err:
         name = str(err.filename or getattr(args, "out", None) or "path")
         what = "not found" if isinstance(err, FileNotFoundError) else (err.strerror or str(err))
-        if ".graphseg-tmp-" in name:  # failed while writing: name the target, not the temporary
+        from .output import _TMP
+
+        if _TMP in name:  # failed while writing: name the target, not the temporary
             _error(f"{getattr(args, 'out', None) or name}: output: cannot write ({what}); nothing written")
         else:
             _error(f"{name}: path: {what}")

@@ -11,7 +11,6 @@ from graphseg.audit import (
     impure_masks,
     lift_edges,
     majority,
-    majority_labels,
     mask_gt_counts,
     min_cut_edges,
     wrong_edges,
@@ -97,15 +96,6 @@ def test_cannot_links_are_not_wrong_edges():
     result.graphs = [g, result.graphs[1]]
     st = audit(result, scene)["stages"][0]
     assert st["wrong"] == 1 and st["cannot_links"] == 2 and st["wrong_cannot_links"] == 1  # 0-2 is one object
-
-
-def test_majority_labels_shape_and_values():
-    masks = [np.array([[0, 1, 1], [2, 2, 0]]), np.array([[3, 0, 0], [0, 0, 0]])]
-    out = majority_labels(masks, np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2]), np.array([5, 0, 9, 9, 6]))
-    assert [o.shape for o in out] == [(2, 3), (2, 3)] and all(o.dtype == np.int64 for o in out)
-    assert out[0].tolist() == [[0, 5, 5], [0, 0, 0]]  # mask 1 lies on the background: no object
-    assert out[1].tolist() == [[6, 0, 0], [0, 0, 0]]
-    assert majority_labels([np.zeros((1, 2), np.int64)], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))[0].tolist() == [[0, 0]]
 
 
 def test_majority_grouping_is_the_perfect_graph_score():

@@ -42,7 +42,7 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,7 +60,6 @@ __all__ = [
     "apply_similarity",
     "metric_scale",
     "NOMINAL_WORKING_DISTANCE",
-    "pairs_from_mapping",
     "finish_lift",
     "lift_from_alignment",
 ]
@@ -519,11 +518,6 @@ def metric_scale(scene: Scene, known_cam_to_world: Sequence[np.ndarray] | np.nda
     out = apply_similarity(scene, s, np.eye(3), np.zeros(3))
     out.meta["scale"] = {"metric": False, "factor": float(s), "method": "nominal-distance"}
     return out
-
-
-def pairs_from_mapping(maps: Mapping[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> list[PairPointMaps]:
-    """``{(i, j): (pts_i, pts_j, conf_i, conf_j)}`` as a list of :class:`PairPointMaps`."""
-    return [PairPointMaps(i, j, *arrs) for (i, j), arrs in maps.items()]
 
 
 def finish_lift(

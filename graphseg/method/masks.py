@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["compose_masks"]
+__all__ = ["compose_masks", "paint_masks"]
 
 
 def compose_masks(
@@ -139,3 +139,43 @@ def compose_masks(
         "kept": kept.tolist(),
     }
     return labels.astype(np.int32, copy=not fresh), info  # never the caller's array
+
+
+def paint_masks(masks: Sequence[np.ndarray], mask_view: np.ndarray, mask_id: np.ndarray, values: np.ndarray, *, dtype: Any = np.int64) -> list[np.ndarray]:
+    """Label images in which every composed mask's pixels carry that mask's value.
+
+    Parameters
+    ----------
+    masks : list of int ``[H, W]``
+        Composed mask images, ``mask_id + 1`` (0 = none), as :func:`compose_masks` gives.
+    mask_view, mask_id : int ``[M]``
+        View and id of every mask.
+    values : int ``[M]``
+        The value to paint (an object id; 0 = none).
+    dtype : numpy dtype, keyword-only
+
+    Returns
+    -------
+    list of ``[H, W]``
+        Per view; 0 where no mask lies.
+
+    Notes
+    -----
+    O(total pixels): one lookup table per view.
+
+    Examples
+    --------
+    >>> [m.tolist() for m in paint_masks([np.array([[0, 1, 2]])], np.array([0, 0]), np.array([0, 1]), np.array([7, 0]))]
+    [[[0, 7, 0]]]
+    """
+    out = []
+    view = np.asarray(mask_view)
+    for v, lab in enumerate(masks):
+        lab = np.asarray(lab)
+        sel = view == v
+        lut = np.zeros(int(lab.max(initial=0)) + 1, dtype)
+        ids = np.asarray(mask_id)[sel] + 1
+        keep = ids < lut.size
+        lut[ids[keep]] = np.asarray(values)[sel][keep]
+        out.append(lut[lab])
+    return out

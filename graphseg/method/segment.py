@@ -40,7 +40,7 @@ from ..graphs.signed import split_signed
 from ..result import Result
 from ..scene import Matches, Scene, SceneError
 from .background import background_masks
-from .masks import compose_masks
+from .masks import compose_masks, paint_masks
 
 __all__ = ["segment", "MasksLike"]
 
@@ -251,12 +251,7 @@ def segment(
         col = np.zeros(g.num_nodes, np.int64)
         col[g.members["node"]] = obj
         g.node_attr["object"] = col
-    out_labels = []
-    for v, lab in enumerate(labels):
-        sel = mem["view"] == v
-        lut = np.zeros(int(lab.max()) + 1 if lab.size else 1, np.int32)
-        lut[mem["mask_id"][sel] + 1] = obj[sel]
-        out_labels.append(lut[lab])
+    out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
     clouds = node_point_sets(
         object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in scene.views]

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphseg.method.masks import compose_masks
+from graphseg.method.masks import compose_masks, paint_masks
 
 
 def test_smaller_masks_painted_over_larger():
@@ -79,3 +79,13 @@ def test_label_image_input_is_never_returned_or_mutated():
     assert np.array_equal(lab, keep) and info["kept"] == [0, 1]
     out, _ = compose_masks(lab.astype(np.uint8))
     assert out.tolist() == keep.tolist() and out.dtype == np.int32
+
+
+def test_paint_masks_shape_and_values():
+    masks = [np.array([[0, 1, 1], [2, 2, 0]]), np.array([[3, 0, 0], [0, 0, 0]])]
+    out = paint_masks(masks, np.array([0, 0, 1, 1, 1]), np.array([0, 1, 0, 1, 2]), np.array([5, 0, 9, 9, 6]))
+    assert [o.shape for o in out] == [(2, 3), (2, 3)] and all(o.dtype == np.int64 for o in out)
+    assert out[0].tolist() == [[0, 5, 5], [0, 0, 0]]  # mask 1 lies on the background: no object
+    assert out[1].tolist() == [[6, 0, 0], [0, 0, 0]]
+    assert paint_masks([np.zeros((1, 2), np.int64)], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))[0].tolist() == [[0, 0]]
+    assert paint_masks(masks, np.array([0]), np.array([0]), np.array([3]), dtype=np.int32)[0].dtype == np.int32
