@@ -265,7 +265,18 @@ def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] |
     return ei[:, pos], strength, ei[:, neg]
 
 
-class ConstrainedUnionFindContraction:
+class _SignedContraction:
+    """A contractor that runs ``solve(attract, num_nodes, weight=strength, cannot_link=...)`` on :func:`signed_edges`."""
+
+    uses_edge_attr = True
+    solve: Any = None
+
+    def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
+        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
+        return self.solve(attract, num_nodes, weight=strength, cannot_link=cannot)
+
+
+class ConstrainedUnionFindContraction(_SignedContraction):
     """Contractor: :func:`constrained_union_find` on a graph's signed edges.
 
     Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
@@ -280,11 +291,7 @@ class ConstrainedUnionFindContraction:
     """
 
     name = "constrained"
-    uses_edge_attr = True
-
-    def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
-        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
-        return constrained_union_find(attract, num_nodes, weight=strength, cannot_link=cannot)
+    solve = staticmethod(constrained_union_find)
 
 
 def core_attach_contraction(edge_index: Any, num_nodes: int, *, core: Any, weight: Any = None, cannot_link: Any = None) -> np.ndarray:
@@ -390,7 +397,7 @@ class CoreAttachContraction:
         return core_attach_contraction(attract, num_nodes, core=core, weight=strength, cannot_link=cannot)
 
 
-class GreedyAdditiveContraction:
+class GreedyAdditiveContraction(_SignedContraction):
     """Contractor: :func:`greedy_additive_contraction` on a graph's signed edges.
 
     Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
@@ -405,8 +412,4 @@ class GreedyAdditiveContraction:
     """
 
     name = "gaec"
-    uses_edge_attr = True
-
-    def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None, edge_attr: Mapping[str, Any] | None = None) -> np.ndarray:
-        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
-        return greedy_additive_contraction(attract, num_nodes, weight=strength, cannot_link=cannot)
+    solve = staticmethod(greedy_additive_contraction)
