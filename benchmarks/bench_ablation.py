@@ -65,6 +65,12 @@ def _with_repulsion(base: Config, opts: dict) -> list:
     return [[*stage, {"depth_repulsion": dict(opts)}] for stage in base.to_dict()["stages"]]
 
 
+def _without_outliers(cfg: Config) -> Config:
+    """``cfg`` with ``chamfer_3d``'s per-node outlier removal switched off."""
+    stages = [[{name: ({**opts, "outliers": None} if name == "chamfer_3d" else opts)} for entry in stage for name, opts in entry.items()] for stage in cfg.to_dict()["stages"]]
+    return _variant(cfg, stages=stages)
+
+
 def variants() -> dict[str, Config]:
     base = Config.preset("rgbd")
     stages = base.to_dict()["stages"]
@@ -75,7 +81,8 @@ def variants() -> dict[str, Config]:
         "+ repulsion (jump+concave), constrained UF": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="constrained"),
         "+ repulsion (jump 10 cm + concave), constrained UF": _variant(base, stages=_with_repulsion(base, ROBUST), contractor="constrained"),
         "+ smooth_adjacency, constrained UF": _variant(base, stages=[stages[0], [*stages[1], "smooth_adjacency"]], contractor="constrained"),
-        "robust preset: repulsion (jump 10 cm + concave) + smooth_adjacency, constrained UF": Config.preset("robust"),
+        "robust preset: repulsion (jump 10 cm + concave) + smooth_adjacency + Chamfer DBSCAN, constrained UF": Config.preset("robust"),
+        "robust preset without Chamfer outlier removal": _without_outliers(Config.preset("robust")),
         "robust preset with the gaec contractor": _variant(Config.preset("robust"), contractor="gaec"),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),

@@ -322,7 +322,7 @@ PRESETS: dict[str, dict[str, Any]] = {
                 {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
             ],
             [
-                {"chamfer_3d": {"tau": 5e-5}},
+                {"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan", "dbscan_min_samples": 15}},
                 {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
                 {"smooth_adjacency": {"color": 15.0}},
             ],

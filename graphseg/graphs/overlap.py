@@ -63,8 +63,8 @@ def bidirectional_overlap_edges(
     -----
     O(total matches + P log P).
     """
-    best: dict[int, tuple[float, int]] = {}
     n = max(num_nodes, 1)
+    key_parts, ovs, cnts = [np.zeros(0, np.int64)], [np.zeros(0)], [np.zeros(0, np.int64)]
     for (i, j), m in matches.items():
         if len(m) == 0:
             continue
@@ -77,14 +77,22 @@ def bidirectional_overlap_edges(
         x, y = a[ok].astype(np.int64), b[ok].astype(np.int64)
         pu, pv, pc = pair_counts(np.minimum(x, y), np.maximum(x, y), n)
         hits = out_a + out_b  # a node lies in one view, so one of the terms is 0
-        ov = pc / np.maximum(np.maximum(hits[pu], hits[pv]), 1)
-        for u, v, c, o in zip(pu.tolist(), pv.tolist(), pc.tolist(), ov.tolist()):
-            if c >= min_matches and o > best.get(u * n + v, (-1.0, 0))[0]:
-                best[u * n + v] = (o, c)
-    keys = np.array([k for k, (o, _) in best.items() if o >= threshold], np.int64)
+        enough = pc >= min_matches
+        key_parts.append(pu[enough] * n + pv[enough])
+        ovs.append(pc[enough] / np.maximum(np.maximum(hits[pu], hits[pv]), 1)[enough])
+        cnts.append(pc[enough])
+    key, ov, cnt = np.concatenate(key_parts), np.concatenate(ovs), np.concatenate(cnts)
+    # per node pair, the best overlap over view pairs (the first view pair on ties);
+    # edges in the order their pair first appears
+    order = np.lexsort((np.arange(key.size), -ov, key))
+    best = order[np.flatnonzero(np.diff(key[order], prepend=-1))]  # one per key, in key order
+    _, appears = np.unique(key, return_index=True)  # also in key order
+    first = best[np.argsort(appears)]
+    first = first[ov[first] >= threshold]
+    keys = key[first]
     u, v = np.divmod(keys, n)
-    w = np.array([best[k][0] for k in keys.tolist()], np.float64)
-    c = np.array([best[k][1] for k in keys.tolist()], np.int64)
+    w = ov[first].astype(np.float64)
+    c = cnt[first].astype(np.int64)
     return EdgeSet(np.stack([u, v]).reshape(2, -1), {"criterion": np.full(keys.size, "bidirectional_overlap"), "weight": w, "count": c}, info={"threshold": threshold})
 
 

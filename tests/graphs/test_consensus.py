@@ -1,5 +1,7 @@
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
 from graphseg.graphs.consensus import (
@@ -67,3 +69,57 @@ def test_bidirectional_overlap_refuses_a_swallowed_mask():
     assert es.edge_attr["weight"].tolist() == [0.75]
     assert bidirectional_overlap_edges(labs, {}, 3).num_edges == 0
     assert isinstance(edge_adders.resolve("bidirectional_overlap"), BidirectionalOverlap)
+
+
+def test_bidirectional_overlap_keeps_the_best_view_pair_in_first_seen_order():
+    # nodes 0, 1 in view 0; 2 in view 1; 3 in view 2
+    labs = [np.array([[0, 0, 1, 1]]), np.array([[2, 2, 2, -1]]), np.array([[3, 3, 3, 3]])]
+    m = identity_matches((1, 4), [(0, 1), (0, 2)])
+    es = bidirectional_overlap_edges(labs, m, 4, threshold=0.0, min_matches=1)
+    # pair (0, 1): 0-2 = 2/3, 1-2 = 1/3; pair (0, 2): 0-3 = 2/4, 1-3 = 2/4
+    assert es.edge_index.tolist() == [[0, 1, 0, 1], [2, 2, 3, 3]]
+    np.testing.assert_allclose(es.edge_attr["weight"], [2 / 3, 1 / 3, 0.5, 0.5])
+    assert es.edge_attr["count"].tolist() == [2, 1, 2, 2]
+    assert es.edge_attr["weight"].dtype == np.float64 and es.edge_index.dtype == np.int64
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10_000), st.floats(0.0, 1.0), st.integers(1, 3))
+def test_bidirectional_overlap_matches_a_brute_force_reference(seed, threshold, min_matches):
+    from graphseg.graphs.pixel_match import lookup_pixels
+
+    rng = np.random.default_rng(seed)
+    n_views, h, w = 3, 4, 5
+    labs, off = [], 0
+    for _ in range(n_views):
+        k = int(rng.integers(1, 4))
+        lab = rng.integers(-1, k, (h, w))
+        labs.append(np.where(lab >= 0, lab + off, -1))
+        off += k
+    matches = {}
+    for i in range(n_views):
+        for j in range(i + 1, n_views):
+            if rng.random() < 0.8:
+                xy = np.stack([rng.integers(0, w, 12), rng.integers(0, h, 12)], 1).astype(np.float32)
+                xy2 = np.stack([rng.integers(0, w, 12), rng.integers(0, h, 12)], 1).astype(np.float32)
+                matches[(i, j)] = Matches(xy, xy2, np.ones(12))
+    best = {}  # the definition, one view pair and one node pair at a time
+    for (i, j), m in matches.items():
+        a, _ = lookup_pixels(labs[i], m.xy_i)
+        b, _ = lookup_pixels(labs[j], m.xy_j)
+        both = (a >= 0) & (b >= 0)
+        for u in np.unique(a[both]):
+            for v in np.unique(b[both]):
+                c = int(np.sum((a == u) & (b == v)))
+                if c < min_matches:
+                    continue
+                o = c / max(int(np.sum(a == u)), int(np.sum(b == v)))
+                key = (min(u, v), max(u, v))
+                if key not in best or o > best[key][0]:
+                    best[key] = (o, c)
+    es = bidirectional_overlap_edges(labs, matches, off, threshold=threshold, min_matches=min_matches)
+    got = {tuple(p): (wt, c) for p, wt, c in zip(es.edge_index.T.tolist(), es.edge_attr["weight"].tolist(), es.edge_attr["count"].tolist())}
+    want = {k: v for k, v in best.items() if v[0] >= threshold}
+    assert got.keys() == want.keys()
+    for k in want:
+        assert got[k][0] == pytest.approx(want[k][0]) and got[k][1] == want[k][1]

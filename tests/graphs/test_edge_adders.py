@@ -191,6 +191,25 @@ def test_remove_outliers_statistical_and_dbscan():
         remove_outliers(sets, "magic")
 
 
+def test_dbscan_drops_a_detached_patch_that_would_bridge_objects():
+    """A node (a block) holding a small detached patch of points where another object
+    (a marker fragment) lies: the fragment's directed Chamfer to the block is ~0 and
+    joins them. DBSCAN (robust preset: eps 2 cm, 15 samples) keeps the block's main
+    body, the patch goes, and so does the edge (YCB-Video 0002, oracle parts k = 4)."""
+    from graphseg.config import Config
+
+    g0, g1 = np.mgrid[0:20, 0:20] * 0.005  # 10 x 10 cm block face, 5 mm grid (the voxel size)
+    block = np.stack([g0.ravel(), g1.ravel(), np.zeros(400)], 1)
+    speck = np.array([0.2, 0.05, 0.0]) + np.random.default_rng(0).normal(0, 0.002, (12, 3))  # 10 cm from the face
+    marker = np.array([0.2, 0.05, 0.0]) + np.random.default_rng(1).normal(0, 0.002, (10, 3))
+    pts = np.concatenate([block, speck, marker]).astype(np.float32)[None]
+    lab = np.array([[0] * 412 + [1] * 10])
+    g = CorrespondenceGraph(2, node_attr={"area": [412, 10]})
+    opts = {**Config.preset("robust").criterion_options("chamfer_3d"), "voxel_size": None, "stride": 1}
+    assert Chamfer3D(**{**opts, "outliers": None})(g, Evidence([lab], points=[pts])).edge_index.T.tolist() == [[0, 1]]
+    assert Chamfer3D(**opts)(g, Evidence([lab], points=[pts])).num_edges == 0
+
+
 def test_feature_similarity():
     lab = [np.array([[0, 0, 1, 1]]), np.array([[2, 2, -1, -1]])]
     feats = [np.array([[[1.0, 0], [1, 0], [0, 1], [0, 1]]]), np.array([[[1.0, 0.1], [1, 0.1], [0, 0], [0, 0]]])]
