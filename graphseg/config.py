@@ -324,7 +324,7 @@ PRESETS: dict[str, dict[str, Any]] = {
             [
                 {"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan", "dbscan_min_samples": 15}},
                 {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
-                {"smooth_adjacency": {"color": 15.0}},
+                {"smooth_adjacency": {"color": 20.0}},
             ],
         ],
         "contractor": "constrained",

@@ -63,7 +63,7 @@ def test_presets_are_written_in_the_stage_form():
     assert Config.preset("paper") == Config()
     rob = Config.preset("robust")
     assert rob.criterion_options("depth_repulsion")["jump"] == 0.1 and rob.criterion_options("depth_repulsion")["concave"] == 0.2
-    assert rob.criterion_options("smooth_adjacency")["color"] == 15.0
+    assert rob.criterion_options("smooth_adjacency")["color"] == 20.0
     assert rob.criterion_options("chamfer_3d")["outliers"] == "dbscan" and rob.criterion_options("chamfer_3d")["dbscan_min_samples"] == 15
     assert rob.to_dict()["contractor"] == "constrained"
     assert rob.criterion_options("pixel_match") == r.criterion_options("pixel_match")  # rgbd's evidence, robust contraction
