@@ -62,7 +62,7 @@ def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:
     a leading ``model.`` on every key (the Hub wrapper's) is removed. None
     keeps random weights (tests, benchmarks).
     """
-    torch = _import("torch")
+    _import("torch")
     for dep in ("addict", "einops", "omegaconf"):
         _import(dep)
     cfg_mod = _import("depth_anything_3.cfg")
@@ -77,23 +77,10 @@ def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:
         net = cfg_mod.create_object(cfg_mod.load_config(registry.MODEL_REGISTRY[model]))
     logging.getLogger("depth_anything_3").setLevel(logging.WARNING)
     if checkpoint is not None:
+        from .weights import load_state_dict_file
+
         path = Path(checkpoint)
-        try:
-            if path.suffix == ".safetensors":
-                state = _import("safetensors.torch").load_file(str(path))
-            else:
-                state = torch.load(str(path), map_location="cpu", weights_only=True)
-        except MissingDependencyError:
-            raise
-        except Exception as err:
-            raise SceneError(f"cannot read the checkpoint ({str(err).splitlines()[0]})", where=str(path), field="checkpoint") from err
-        for key in ("state_dict", "model"):
-            if isinstance(state, dict) and isinstance(state.get(key), dict):
-                state = state[key]
-        if not isinstance(state, dict):
-            raise SceneError("expected a state dict", where=str(path), field="checkpoint")
-        if state and all(k.startswith("model.") for k in state):
-            state = {k[len("model."):]: v for k, v in state.items()}
+        state = load_state_dict_file(path, "da3", field="checkpoint", strip_prefix="model.")
         try:
             missing, unexpected = net.load_state_dict(state, strict=False)
         except RuntimeError as err:  # size mismatches

@@ -28,8 +28,9 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from ..scene import Matches, SceneError, View
 from .options import ModelBackend, checkpoint_path, require_backend
 from .sam import _rgb
+from .weights import load_into, load_state_dict_file
 
-__all__ = ["sample_by_certainty", "load_state_dict_file", "LoFTRMatcher", "RoMaMatcher"]
+__all__ = ["sample_by_certainty", "LoFTRMatcher", "RoMaMatcher"]
 
 
 def sample_by_certainty(m: Matches, n: int | None, *, threshold: float = 0.05, rng: Any = None) -> Matches:
@@ -69,39 +70,6 @@ def sample_by_certainty(m: Matches, n: int | None, *, threshold: float = 0.05, r
         key = np.log(w) + gen.gumbel(size=len(w))
         idx = np.sort(pos[np.argpartition(-key, n - 1)[:n]])
     return Matches(m.xy_i[idx], m.xy_j[idx], m.certainty[idx])
-
-
-def load_state_dict_file(path: Any, backend: str, option: str = "checkpoint", keys: tuple[str, ...] = ("state_dict", "model")) -> dict[str, Any]:
-    """``torch.load`` a user's weights file (weights only) and unwrap ``{"state_dict": ...}`` / ``{"model": ...}``.
-
-    Raises
-    ------
-    SceneError
-        When the file cannot be read as a state dict.
-    """
-    import torch
-
-    field = f"backends.options.{backend}.{option}"
-    try:
-        state = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as err:
-        raise SceneError(f"cannot read the weights ({type(err).__name__})", where=str(path), field=field) from None
-    for k in keys:
-        if isinstance(state, dict) and isinstance(state.get(k), dict):
-            state = state[k]
-            break
-    if not isinstance(state, dict):
-        raise SceneError(f"expected a state dict (got {type(state).__name__})", where=str(path), field=field)
-    return state
-
-
-def _load_into(module: Any, state: dict[str, Any], path: Any, backend: str, option: str = "checkpoint", what: str = "") -> None:
-    try:
-        module.load_state_dict(state, strict=True)
-    except RuntimeError as err:
-        lines = [ln.strip() for ln in str(err).splitlines() if ln.strip()]
-        detail = lines[1] if len(lines) > 1 else lines[0]
-        raise SceneError(f"weights do not fit {what or backend} ({detail[:200]})", where=str(path), field=f"backends.options.{backend}.{option}") from None
 
 
 def _to_pixels(xy_px: np.ndarray, src_wh: tuple[int, int], dst_wh: tuple[int, int]) -> np.ndarray:
@@ -163,7 +131,7 @@ class LoFTRMatcher(ModelBackend):
         cfg["match_coarse"]["thr"] = o.match_threshold
         cfg["coarse"]["temp_bug_fix"] = o.temp_bug_fix
         self.model = LoFTR(pretrained=None, config=cfg)
-        _load_into(self.model, state, path, "loftr", what="kornia's LoFTR")
+        load_into(self.model, state, path, "loftr", what="kornia's LoFTR")
         self.model = self.model.to(o.device).eval()
         self._torch = torch
 
@@ -323,5 +291,5 @@ def _build_tiny_roma(state: dict[str, Any], path: Any) -> Any:
     from romatch.models.model_zoo.roma_models import tiny_roma_v1_model
 
     model = tiny_roma_v1_model(weights=None, xfeat=XFeatModel())
-    _load_into(model, state, path, "roma", what="tiny RoMa v1")
+    load_into(model, state, path, "roma", what="tiny RoMa v1")
     return model

@@ -128,11 +128,11 @@ class DINOv2Features(ModelBackend):
             self.arch = o.arch or dinov2_arch(path)
         except ValueError as err:
             raise SceneError(str(err), field=f"{field}.arch") from None
-        from .dense_matchers import _load_into, load_state_dict_file
+        from .weights import load_into, load_state_dict_file
 
         state = load_state_dict_file(path, "dinov2", keys=("model", "state_dict", "teacher"))
         self.model = build_dinov2(self.arch)
-        _load_into(self.model, state, path, "dinov2", what=f"DINOv2 {self.arch}")
+        load_into(self.model, state, path, "dinov2", what=f"DINOv2 {self.arch}")
         self.model = self.model.to(o.device).eval()
 
     def _input(self, rgb: np.ndarray) -> tuple[np.ndarray, int, int]:

@@ -109,7 +109,7 @@ def load_sam2(checkpoint: str | Path | None, config: str | None = None, *, image
     """
     field = "backends.options.sam2"
     require_backend("sam2", "sam2", "sam2")
-    torch = require_backend("torch", "sam2", "sam2")
+    require_backend("torch", "sam2", "sam2")
     path = checkpoint_path(checkpoint, "sam2", "sam2")
     try:
         cfg = sam2_config_name(config if config else path)
@@ -123,12 +123,9 @@ def load_sam2(checkpoint: str | Path | None, config: str | None = None, *, image
         model = build_sam2(cfg, ckpt_path=None, device="cpu", hydra_overrides_extra=extra)
     except MissingConfigException:
         raise SceneError(f"no SAM 2 config {cfg!r} in the sam2 package (configs/sam2.1/sam2.1_hiera_{{t,s,b+,l}}.yaml)", field=f"{field}.config") from None
-    try:
-        state = torch.load(str(path), map_location="cpu", weights_only=True)
-    except Exception as err:
-        raise SceneError(f"cannot read the checkpoint ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})", where=str(path), field=f"{field}.checkpoint") from None
-    if isinstance(state, dict) and "model" in state and isinstance(state["model"], dict):
-        state = state["model"]
+    from .weights import load_state_dict_file
+
+    state = load_state_dict_file(path, "sam2", keys=("model",))
     try:
         model.load_state_dict(state, strict=True)
     except (RuntimeError, TypeError, AttributeError) as err:
