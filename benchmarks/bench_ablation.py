@@ -14,8 +14,10 @@ method and the reference), GraphSeg-minus, and each robust component switched
 on: ``depth_repulsion`` cannot-links (depth jumps; + concave creases) with the
 constrained union-find; concave creases with jumps only above 10 cm;
 ``smooth_adjacency`` (parts that meet along a smooth, convex boundary that is
-no colour edge) in the 3D stage; both together (the ``robust`` preset), also
-with greedy additive edge contraction (``gaec``); ``core_attach`` (small masks follow one edge),
+no colour edge) in the 3D stage; both together with DBSCAN outlier removal
+before the Chamfer test (the ``robust`` preset), the preset without that
+outlier removal, and the preset with greedy additive edge contraction
+(``gaec``); ``core_attach`` (small masks follow one edge),
 ``view_consensus`` in place of ``pixel_match``; then the baselines
 ``maskclustering`` and ``sam3d``. Inputs (lifted scene, masks, matches) are
 computed once per scene and segmenter and shared by every row.
@@ -67,7 +69,13 @@ def _with_repulsion(base: Config, opts: dict) -> list:
 
 def _without_outliers(cfg: Config) -> Config:
     """``cfg`` with ``chamfer_3d``'s per-node outlier removal switched off."""
-    stages = [[{name: ({**opts, "outliers": None} if name == "chamfer_3d" else opts)} for entry in stage for name, opts in entry.items()] for stage in cfg.to_dict()["stages"]]
+    stages = []
+    for stage in cfg.to_dict()["stages"]:  # each entry is {criterion name: options}
+        entries = []
+        for entry in stage:
+            ((name, opts),) = entry.items()
+            entries.append({name: {**opts, "outliers": None} if name == "chamfer_3d" else opts})
+        stages.append(entries)
     return _variant(cfg, stages=stages)
 
 

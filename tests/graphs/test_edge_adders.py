@@ -208,6 +208,9 @@ def test_dbscan_drops_a_detached_patch_that_would_bridge_objects():
     opts = {**Config.preset("robust").criterion_options("chamfer_3d"), "voxel_size": None, "stride": 1}
     assert Chamfer3D(**{**opts, "outliers": None})(g, Evidence([lab], points=[pts])).edge_index.T.tolist() == [[0, 1]]
     assert Chamfer3D(**opts)(g, Evidence([lab], points=[pts])).num_edges == 0
+    kept = Chamfer3D(**opts).point_sets(g, Evidence([lab], points=[pts]))
+    np.testing.assert_array_equal(kept[0], pts[0, :400])  # the block's face, without the patch
+    assert kept.sizes().tolist() == [400, 10]  # a node under min_samples points is left alone
 
 
 def test_feature_similarity():
