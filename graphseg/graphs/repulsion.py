@@ -81,30 +81,35 @@ def boundary_jumps(
     pts = np.asarray(points)
     if pts.shape != (*lab.shape, 3):
         raise ValueError(f"expected points of shape [{lab.shape[0]}, {lab.shape[1]}, 3] (got {list(pts.shape)})")
-    nrm = np.full(pts.shape, np.nan, np.float32) if normals is None else np.asarray(normals, np.float32)
-    col = np.full((*lab.shape, 1), np.nan) if colors is None else np.asarray(colors, np.float64)
-    if col.ndim != 3 or col.shape[:2] != lab.shape:
-        raise ValueError(f"expected colors of shape [{lab.shape[0]}, {lab.shape[1]}, C] (got {list(col.shape)})")
+    h, w = lab.shape
+    nrm = None if normals is None else np.asarray(normals, np.float32).reshape(-1, 3)
+    col = None if colors is None else np.asarray(colors, np.float64)
+    if col is not None and (col.ndim != 3 or col.shape[:2] != lab.shape):
+        raise ValueError(f"expected colors of shape [{h}, {w}, C] (got {list(col.shape)})")
+    flat_lab, flat_pts = lab.reshape(-1), pts.reshape(-1, 3)
+    flat_col = None if col is None else col.reshape(h * w, -1)
     los, his, ds, cs, ks = [], [], [], [], []
     for d in range(1, int(reach) + 1):
-        for a, b, pa, pb, na, nb, ca, cb in (
-            (lab[:, :-d], lab[:, d:], pts[:, :-d], pts[:, d:], nrm[:, :-d], nrm[:, d:], col[:, :-d], col[:, d:]),
-            (lab[:-d, :], lab[d:, :], pts[:-d, :], pts[d:, :], nrm[:-d, :], nrm[d:, :], col[:-d, :], col[d:, :]),
-        ):
-            ok = (a >= 0) & (b >= 0) & (a != b)
-            if not ok.any():
+        for a, b, step in ((lab[:, :-d], lab[:, d:], d), (lab[:-d, :], lab[d:, :], d * w)):
+            rows, cols = np.nonzero((a >= 0) & (b >= 0) & (a != b))
+            if rows.size == 0:
                 continue
-            diff = pa[ok].astype(np.float64) - pb[ok]
+            p = rows * w + cols  # flat index of the first pixel of each pair; the second is p + step
+            q = p + step
+            diff = flat_pts[p].astype(np.float64) - flat_pts[q]
             dist = np.linalg.norm(diff, axis=1)
             fin = np.isfinite(dist)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                conv = np.einsum("ij,ij->i", na[ok].astype(np.float64) - nb[ok], diff) / dist
-            x, y = a[ok][fin].astype(np.int64), b[ok][fin].astype(np.int64)
+            p, q, diff, dist = p[fin], q[fin], diff[fin], dist[fin]
+            x, y = flat_lab[p].astype(np.int64), flat_lab[q].astype(np.int64)
             los.append(np.minimum(x, y))
             his.append(np.maximum(x, y))
-            ds.append(dist[fin])
-            cs.append(conv[fin])
-            ks.append(np.linalg.norm(ca[ok][fin] - cb[ok][fin], axis=1))
+            ds.append(dist)
+            if nrm is None:
+                cs.append(np.full(p.size, np.nan))
+            else:
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    cs.append(np.einsum("ij,ij->i", nrm[p].astype(np.float64) - nrm[q], diff) / dist)
+            ks.append(np.full(p.size, np.nan) if flat_col is None else np.linalg.norm(flat_col[p] - flat_col[q], axis=1))
     if not los:
         z = np.zeros(0, np.int64)
         return z, z, np.zeros(0), np.zeros(0), np.zeros(0)

@@ -266,7 +266,12 @@ def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] |
 
 
 class _SignedContraction:
-    """A contractor that runs ``solve(attract, num_nodes, weight=strength, cannot_link=...)`` on :func:`signed_edges`."""
+    """A contractor that runs ``solve(attract, num_nodes, weight=strength, cannot_link=...)`` on :func:`signed_edges`.
+
+    Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
+    (``uses_edge_attr = True``): edges with ``sign < 0`` are cannot-links, the
+    others attract with their :func:`edge_strength`. Subclasses set ``solve``.
+    """
 
     uses_edge_attr = True
     solve: Any = None
@@ -277,16 +282,11 @@ class _SignedContraction:
 
 
 class ConstrainedUnionFindContraction(_SignedContraction):
-    """Contractor: :func:`constrained_union_find` on a graph's signed edges.
-
-    Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
-    (``uses_edge_attr = True``): edges with ``sign < 0`` are cannot-links, the
-    others are taken in order of :func:`edge_strength`.
+    """Contractor: :func:`constrained_union_find` (edges one by one, strongest first) on a graph's signed edges.
 
     Examples
     --------
-    >>> c = ConstrainedUnionFindContraction()
-    >>> c(np.array([[0, 1, 0], [1, 2, 2]]), 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist()
+    >>> ConstrainedUnionFindContraction()(np.array([[0, 1, 0], [1, 2, 2]]), 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist()
     [0, 0, 1]
     """
 
@@ -398,16 +398,11 @@ class CoreAttachContraction:
 
 
 class GreedyAdditiveContraction(_SignedContraction):
-    """Contractor: :func:`greedy_additive_contraction` on a graph's signed edges.
-
-    Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
-    (``uses_edge_attr = True``): edges with ``sign < 0`` are cannot-links; the
-    others attract with their :func:`edge_strength`, summed per cluster pair.
+    """Contractor: :func:`greedy_additive_contraction` (strengths summed per cluster pair) on a graph's signed edges.
 
     Examples
     --------
-    >>> c = GreedyAdditiveContraction()
-    >>> c(np.array([[0, 1, 0], [1, 2, 2]]), 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist()
+    >>> GreedyAdditiveContraction()(np.array([[0, 1, 2], [1, 2, 0]]), 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist()
     [0, 0, 1]
     """
 
