@@ -24,7 +24,8 @@ def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
 
     Central differences over ``step`` pixels. At a depth edge the difference
     spans both surfaces, so the normal there matches neither: pixels at the
-    foot of an object are not mistaken for table.
+    foot of an object are not mistaken for table. Pixels within ``step`` of
+    the border are NaN. O(H W).
 
     Examples
     --------
@@ -35,16 +36,18 @@ def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
     """
     p = np.asarray(points, np.float32)
     h, w = p.shape[:2]
-    dx = np.full_like(p, np.nan)
-    dy = np.full_like(p, np.nan)
-    if w > 2 * step:
-        dx[:, step:-step] = p[:, 2 * step :] - p[:, : -2 * step]
-    if h > 2 * step:
-        dy[step:-step] = p[2 * step :] - p[: -2 * step]
-    n = np.cross(dx, dy)
-    norm = np.linalg.norm(n, axis=-1, keepdims=True)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return n / norm
+    out = np.full(p.shape, np.nan, np.float32)
+    if w > 2 * step and h > 2 * step:  # only interior pixels have both differences
+        dx = p[step:-step, 2 * step :] - p[step:-step, : -2 * step]
+        dy = p[2 * step :, step:-step] - p[: -2 * step, step:-step]
+        n = np.empty_like(dx)  # dx x dy, written out (np.cross copies its inputs)
+        n[..., 0] = dx[..., 1] * dy[..., 2] - dx[..., 2] * dy[..., 1]
+        n[..., 1] = dx[..., 2] * dy[..., 0] - dx[..., 0] * dy[..., 2]
+        n[..., 2] = dx[..., 0] * dy[..., 1] - dx[..., 1] * dy[..., 0]
+        norm = np.sqrt(np.einsum("...i,...i->...", n, n))[..., None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[step:-step, step:-step] = n / norm
+    return out
 
 
 def fit_plane_ransac(

@@ -52,6 +52,7 @@ def smooth_adjacency_links(
     normal_step: int = 3,
     rgb: Sequence[np.ndarray] | None = None,
     color: float | None = 20.0,
+    normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Attractive edges between nodes that touch along a long, smooth, convex boundary.
 
@@ -78,6 +79,8 @@ def smooth_adjacency_links(
         shading of one synthetic object no longer splits it
         (``docs/results.md``). See
         :func:`graphseg.graphs.repulsion.boundary_separation` for all three tests.
+    normals : list of float ``[H, W, 3]``, optional
+        Precomputed normals at ``normal_step`` (see ``boundary_separation``).
     max_separated : float
         A pair is joined when at most this share of its boundary pixel pairs
         are separations.
@@ -98,7 +101,7 @@ def smooth_adjacency_links(
     if jump is None and concave is None and (color is None or rgb is None):
         raise ValueError("smooth_adjacency: no separation test (jump, concave and color are all off); every touching pair would join")
     pairs, count, sep = boundary_separation(
-        node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color, drop_unknown=True
+        node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color, drop_unknown=True, normals=normals
     )
     keep = (count >= min_pairs) & (sep <= max_separated)
     n = int(keep.sum())
@@ -145,4 +148,5 @@ class SmoothAdjacency(Criterion):
         rgb = evidence.rgb if opts["color"] is not None else None
         if opts["color"] is not None and rgb is None:
             raise ValueError("smooth_adjacency with color needs rgb images")
-        return smooth_adjacency_links(evidence.node_labels, evidence.points, graph.num_nodes, rgb=rgb, **opts)
+        normals = evidence.normals(opts["normal_step"]) if opts["concave"] is not None else None
+        return smooth_adjacency_links(evidence.node_labels, evidence.points, graph.num_nodes, rgb=rgb, normals=normals, **opts)

@@ -21,6 +21,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..geometry import point_normals
 from .graph import CorrespondenceGraph, as_edge_index
 
 __all__ = ["Evidence", "EdgeSet", "Contractor"]
@@ -50,6 +51,9 @@ class Evidence:
     confidence : list of float ``[H, W]`` (or None per view) or None
     masks : list of int ``[H, W]`` or None
         The composed mask images (``mask_id + 1``, 0 = none) of the mask graph.
+    normal_cache : dict
+        Filled by :meth:`normals`. The pipeline passes one dict to every
+        stage's evidence, so criteria that need normals compute them once.
     """
 
     node_labels: list[np.ndarray]
@@ -60,6 +64,28 @@ class Evidence:
     cameras: Sequence[tuple[np.ndarray | None, np.ndarray | None]] | None = None
     confidence: Sequence[np.ndarray | None] | None = None
     masks: Sequence[np.ndarray] | None = None
+    normal_cache: dict[int, list[np.ndarray | None]] = field(default_factory=dict, repr=False, compare=False)
+
+    def normals(self, step: int) -> list[np.ndarray | None]:
+        """:func:`graphseg.geometry.point_normals` of every view's ``points`` (None where a view has none).
+
+        Computed on the first call for a ``step`` and kept in ``normal_cache``;
+        do not modify the returned arrays. O(total pixels) once per step.
+
+        Examples
+        --------
+        >>> pts = np.zeros((3, 3, 3), np.float32); pts[..., 0], pts[..., 1] = np.mgrid[0:3, 0:3]
+        >>> ev = Evidence([], points=[pts, None])
+        >>> n = ev.normals(1)
+        >>> np.abs(n[0][1, 1]).tolist(), n[1], ev.normals(1) is n
+        ([0.0, 0.0, 1.0], None, True)
+        """
+        if self.points is None:
+            raise ValueError("normals need world points (evidence.points is None)")
+        step = int(step)
+        if step not in self.normal_cache:
+            self.normal_cache[step] = [None if p is None else point_normals(np.asarray(p, np.float32), step) for p in self.points]
+        return self.normal_cache[step]
 
     @classmethod
     def for_graph(cls, graph: CorrespondenceGraph, **kwargs: Any) -> Evidence:

@@ -128,6 +128,7 @@ def boundary_separation(
     rgb: Sequence[np.ndarray] | None = None,
     color: float | None = None,
     drop_unknown: bool = False,
+    normals: Sequence[np.ndarray | None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs that touch in some view, with their boundary length and the share of it that separates them.
 
@@ -159,6 +160,10 @@ def boundary_separation(
         and at the image border). Attractive evidence needs this: a crease
         next to a depth hole is no proof of a smooth surface. Cannot-links
         keep them (as not separated).
+    normals : list of float ``[H, W, 3]`` (or None per view), optional
+        With ``concave``: the views' :func:`graphseg.geometry.point_normals`
+        at ``normal_step`` if already computed (e.g.
+        :meth:`graphseg.graphs.Evidence.normals`); default: computed here.
 
     Returns
     -------
@@ -183,12 +188,19 @@ def boundary_separation(
     use_color = color is not None and rgb is not None
     if use_color and len(rgb) != len(node_labels):  # type: ignore[arg-type]
         raise ValueError(f"expected one rgb image per view ({len(node_labels)}) (got {len(rgb)})")  # type: ignore[arg-type]
+    if normals is not None and len(normals) != len(node_labels):
+        raise ValueError(f"expected one normal map per view ({len(node_labels)}) (got {len(normals)})")
     los, his, seps = [], [], []
     n = max(int(num_nodes), 1)
     for k, (lab, pts) in enumerate(zip(node_labels, points)):
         if pts is None:
             continue
-        nrm = None if concave is None else -point_normals(np.asarray(pts, np.float32), normal_step)
+        nrm = None
+        if concave is not None:
+            given = None if normals is None else normals[k]
+            if given is not None and np.shape(given) != np.shape(pts):
+                raise ValueError(f"expected normals[{k}] of shape {list(np.shape(pts))} (got {list(np.shape(given))})")
+            nrm = -(point_normals(np.asarray(pts, np.float32), normal_step) if given is None else np.asarray(given, np.float32))
         img = None
         if use_color:
             img = np.asarray(rgb[k])  # type: ignore[index]
@@ -234,6 +246,7 @@ def depth_jump_cannot_links(
     same_view: bool = False,
     concave: float | None = None,
     normal_step: int = 3,
+    normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Cannot-link edges between nodes whose shared boundary is mostly a depth jump or a concave crease.
 
@@ -258,6 +271,8 @@ def depth_jump_cannot_links(
         ``min_pairs`` boundary pixel pairs, less than ``fraction`` of them
         separations). Parts of one surface touch smoothly; separate objects
         meet at a jump or not at all.
+    normals : list of float ``[H, W, 3]``, optional
+        Precomputed normals at ``normal_step`` (see :func:`boundary_separation`).
 
     Returns
     -------
@@ -271,7 +286,7 @@ def depth_jump_cannot_links(
     """
     if jump is None and concave is None:
         raise ValueError("depth_repulsion: jump and concave are both None; give at least one")
-    pairs, count, frac = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step)
+    pairs, count, frac = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, normals=normals)
     seen = count >= min_pairs
     keep = seen & (frac >= fraction)
     ei, w, c = pairs[:, keep], frac[keep], count[keep]
@@ -330,4 +345,6 @@ class DepthRepulsion(Criterion):
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         if evidence.points is None:
             raise ValueError("depth_repulsion needs world points")
-        return depth_jump_cannot_links(evidence.node_labels, evidence.points, graph.num_nodes, **self.options.model_dump())  # type: ignore[arg-type]
+        opts = self.options.model_dump()
+        normals = evidence.normals(opts["normal_step"]) if opts["concave"] is not None else None
+        return depth_jump_cannot_links(evidence.node_labels, evidence.points, graph.num_nodes, normals=normals, **opts)  # type: ignore[arg-type]

@@ -213,6 +213,7 @@ def segment(
     contractor = cfg.contractor.build()
     edge_reduce = cfg.edge_reduce()
     shared = _evidence_fields(cfg.requires(), scene, matches, points, features, labels)
+    shared["normal_cache"] = {}  # normals are computed once for all stages' criteria
     stage_graphs: list[CorrespondenceGraph] = []
     stage_info: list[dict[str, Any]] = []
     current = graph

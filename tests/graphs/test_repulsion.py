@@ -2,7 +2,12 @@ import numpy as np
 import pytest
 
 from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
-from graphseg.graphs.repulsion import DepthRepulsion, boundary_jumps, depth_jump_cannot_links
+from graphseg.graphs.repulsion import (
+    DepthRepulsion,
+    boundary_jumps,
+    boundary_separation,
+    depth_jump_cannot_links,
+)
 
 
 def grid(h, w, z):
@@ -70,3 +75,43 @@ def test_adder_registered_and_options_validated():
         DepthRepulsion(jump=-1.0)
     with pytest.raises(ValueError, match="world points"):
         adder(g, Evidence.for_graph(g))
+
+
+def test_given_normals_give_the_same_links_and_are_checked():
+    from graphseg.geometry import point_normals
+
+    lab = np.zeros((40, 40), np.int64)
+    lab[:, 20:] = 1
+    x = (np.arange(40) - 19.5) * 0.002
+    pts = grid(40, 40, np.broadcast_to(0.5 - 0.5 * np.abs(x), (40, 40)))  # a valley: concave
+    own = boundary_separation([lab], [pts], 2, jump=None, concave=0.1, reach=4, normal_step=2)
+    given = boundary_separation([lab], [pts], 2, jump=None, concave=0.1, reach=4, normal_step=2, normals=[point_normals(pts, 2)])
+    assert all(np.array_equal(a, b) for a, b in zip(own, given)) and own[2][0] >= 0.9  # rows at the border have no normals
+    # a flat normal map given for the valley: no crease is seen (the given normals are used, not recomputed)
+    flat = np.broadcast_to(np.float32([0, 0, 1]), pts.shape)
+    assert boundary_separation([lab], [pts], 2, jump=None, concave=0.1, reach=4, normal_step=2, normals=[flat])[2].tolist() == [0.0]
+    with pytest.raises(ValueError, match=r"expected normals\[0\] of shape \[40, 40, 3\] \(got \[4, 4, 3\]\)"):
+        boundary_separation([lab], [pts], 2, jump=None, concave=0.1, normals=[np.zeros((4, 4, 3))])
+    with pytest.raises(ValueError, match=r"one normal map per view \(1\) \(got 2\)"):
+        boundary_separation([lab], [pts], 2, jump=None, concave=0.1, normals=[flat, flat])
+
+
+def test_criteria_share_the_evidence_normals(monkeypatch):
+    import graphseg.graphs.evidence as evidence_mod
+
+    calls = []
+    real = evidence_mod.point_normals
+    monkeypatch.setattr(evidence_mod, "point_normals", lambda p, step: calls.append(step) or real(p, step))
+    lab = np.zeros((40, 40), np.int64)
+    lab[:, 20:] = 1
+    x = (np.arange(40) - 19.5) * 0.002
+    pts = grid(40, 40, np.broadcast_to(0.5 - 0.5 * np.abs(x), (40, 40)))
+    g = CorrespondenceGraph.from_masks([lab + 1])
+    ev = Evidence.for_graph(g, points=[pts])
+    rep = edge_adders.resolve("depth_repulsion", jump=None, concave=0.1, reach=4, normal_step=2, min_pairs=1)
+    first = rep(g, ev)
+    again = rep(g, Evidence.for_graph(g, points=[pts], normal_cache=ev.normal_cache))  # the next stage's evidence
+    assert first.edge_index.tolist() == again.edge_index.tolist() == [[0], [1]]
+    assert calls == [2]  # computed once for both calls
+    edge_adders.resolve("smooth_adjacency", normal_step=3, color=None)(g, ev)
+    assert calls == [2, 3]
