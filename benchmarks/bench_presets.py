@@ -1,0 +1,83 @@
+"""What each preset costs: ``segment()`` time, its steps and peak memory on real and synthetic scenes.
+
+Scenes: YCB-Video 0001 and 0002 with 10 views (from ``../shared/data/ycbv``,
+skipped when absent) and one synthetic pybullet scene (seed 103, 10 views,
+640x480; skipped without the ``sim`` extra). The inputs (``rgbd`` lift,
+``geometric`` masks, ``reprojection`` matches) are computed once per scene;
+only ``segment()`` is timed, best of ``--repeat`` runs, with its own step
+timings (background, mask composition, each stage, outputs) from the best run.
+Peak memory is tracemalloc's peak over one more run (numpy included; the
+inputs themselves are not counted). IoU is printed as a check (the YCB rows are
+the scenes of ``bench_ablation.py``'s 10-view rows). Run it on an idle machine:
+the timings are wall times.
+
+Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust] [--repeat 3] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _common import peak_traced_mb, print_table, timed, write_json  # noqa: E402
+
+from graphseg.config import Config  # noqa: E402
+from graphseg.io import load_scene  # noqa: E402
+from graphseg.method.segment import segment  # noqa: E402
+from graphseg.metrics import evaluate  # noqa: E402
+from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
+
+YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
+STEPS = ("background", "compose", "stage0", "stage1", "outputs")
+
+
+def scenes():
+    """(name, loader) of every scene available here."""
+    for vid in ("0001", "0002"):
+        if (YCBV / vid).is_dir():
+            yield f"ycbv-{vid} (10 views)", lambda v=vid: load_scene(YCBV / v, num_views=10)
+    try:
+        from graphseg.sim.pybullet_scenes import synthesize
+
+        import pybullet  # noqa: F401
+    except ImportError:
+        print("pybullet missing (extra 'sim'): synthetic scene skipped")
+        return
+    yield "synthetic seed 103 (10 views)", lambda: synthesize(seed=103, objects=5 + (103 * 7) % 6, views=10, size=(640, 480))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--presets", nargs="*", default=["rgbd", "paper", "robust"])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--json", default="benchmarks/results/presets.json")
+    args = ap.parse_args(argv)
+    base = Config.preset("rgbd")
+    rows = []
+    for name, loader in scenes():
+        scene = lift(loader(), None, base)
+        masks = compute_masks(scene, "geometric", base)
+        matches = compute_matches(scene, None, base)
+        for preset in args.presets:
+            cfg = Config.preset(preset)
+            best, runs = float("inf"), None
+            for _ in range(args.repeat):
+                sec, result = timed(lambda: segment(scene, masks, matches, cfg))
+                if sec < best:
+                    best, runs = sec, result
+            mem = peak_traced_mb(lambda: segment(scene, masks, matches, cfg))
+            m = evaluate(runs.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
+            steps = runs.info["timings"]
+            rows.append({"scene": name, "preset": preset, "segment_s": best, **{f"{k}_s": steps.get(k) for k in STEPS},
+                         "peak_traced_mb": mem, "objects": runs.num_objects, "iou": m["mean"]["iou"]})
+            print(f"  {name} {preset}: {best:.3f} s, {mem:.0f} MB, IoU {m['mean']['iou']:.3f}", flush=True)
+    print()
+    print_table(rows, ["scene", "preset", "segment_s", *[f"{k}_s" for k in STEPS], "peak_traced_mb", "objects", "iou"])
+    write_json(args.json, {"repeat": args.repeat, "rows": rows})
+
+
+if __name__ == "__main__":
+    main()
