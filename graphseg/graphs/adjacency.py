@@ -79,14 +79,14 @@ def smooth_adjacency_links(
         shading of one synthetic object no longer splits it
         (``docs/results.md``). See
         :func:`graphseg.graphs.repulsion.boundary_separation` for all three tests.
-    normals : list of float ``[H, W, 3]``, optional
-        Precomputed normals at ``normal_step`` (see ``boundary_separation``).
     max_separated : float
         A pair is joined when at most this share of its boundary pixel pairs
         are separations.
     min_pairs : int
         ... and it has at least this many boundary pixel pairs (pooled over
         views): a short contact is no evidence.
+    normals : list of float ``[H, W, 3]``, optional
+        Precomputed normals at ``normal_step`` (see :func:`graphseg.graphs.repulsion.boundary_separation`).
 
     Returns
     -------
