@@ -40,9 +40,9 @@ def scenes():
         if (YCBV / vid).is_dir():
             yield f"ycbv-{vid} (10 views)", lambda v=vid: load_scene(YCBV / v, num_views=10)
     try:
-        from graphseg.sim.pybullet_scenes import synthesize
-
         import pybullet  # noqa: F401
+
+        from graphseg.sim.pybullet_scenes import synthesize
     except ImportError:
         print("pybullet missing (extra 'sim'): synthetic scene skipped")
         return
