@@ -11,6 +11,8 @@ inputs themselves are not counted). IoU is printed as a check (the YCB rows are
 the scenes of ``bench_ablation.py``'s 10-view rows). Run it on an idle machine:
 the timings are wall times.
 
+Writes the table as Markdown next to the JSON (same name, ``.md``).
+
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust] [--repeat 3] [--json PATH]
 """
 
@@ -75,8 +77,11 @@ def main(argv=None):
                          "peak_traced_mb": mem, "objects": runs.num_objects, "iou": m["mean"]["iou"]})
             print(f"  {name} {preset}: {best:.3f} s, {mem:.0f} MB, IoU {m['mean']['iou']:.3f}", flush=True)
     print()
-    print_table(rows, ["scene", "preset", "segment_s", *[f"{k}_s" for k in STEPS], "peak_traced_mb", "objects", "iou"])
+    table = print_table(rows, ["scene", "preset", "segment_s", *[f"{k}_s" for k in STEPS], "peak_traced_mb", "objects", "iou"])
     write_json(args.json, {"repeat": args.repeat, "rows": rows})
+    md = Path(args.json).with_suffix(".md")
+    md.write_text(f"# bench_presets.py: segment() per preset (best of {args.repeat}, cached inputs; peak = tracemalloc)\n\n{table}\n")
+    print(f"wrote {md}")
 
 
 if __name__ == "__main__":

@@ -35,6 +35,10 @@ def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
     [0.0, 0.0, 1.0]
     """
     p = np.asarray(points, np.float32)
+    if p.ndim != 3 or p.shape[-1] != 3:
+        raise ValueError(f"expected points of shape [H, W, 3] (got {list(p.shape)})")
+    if int(step) < 1:
+        raise ValueError(f"expected step >= 1 (got {step})")
     h, w = p.shape[:2]
     out = np.full(p.shape, np.nan, np.float32)
     if w > 2 * step and h > 2 * step:  # only interior pixels have both differences

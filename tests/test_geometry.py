@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -47,7 +48,19 @@ def test_point_normals_small_images_and_invalid_points():
 
 
 @settings(max_examples=60, deadline=None)
-@given(arrays(np.float32, st.tuples(st.integers(1, 9), st.integers(1, 9), st.just(3)), elements=st.floats(-10, 10, width=32)), st.integers(1, 3))
+@given(
+    arrays(np.float32, st.tuples(st.integers(1, 9), st.integers(1, 9), st.just(3)), elements=st.floats(-10, 10, width=32) | st.just(np.float32("nan"))),
+    st.integers(1, 3),
+)
 def test_point_normals_equals_the_reference(pts, step):
     with np.errstate(invalid="ignore"):
         assert np.array_equal(point_normals(pts, step), reference_normals(pts, step), equal_nan=True)
+
+
+def test_point_normals_bad_input():
+    with pytest.raises(ValueError, match=r"expected points of shape \[H, W, 3\] \(got \[4, 5, 4\]\)"):
+        point_normals(np.zeros((4, 5, 4)))
+    with pytest.raises(ValueError, match=r"got \[4, 5\]"):
+        point_normals(np.zeros((4, 5)))
+    with pytest.raises(ValueError, match=r"expected step >= 1 \(got 0\)"):
+        point_normals(np.zeros((4, 5, 3)), 0)

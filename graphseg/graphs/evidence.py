@@ -67,24 +67,50 @@ class Evidence:
     normal_cache: dict[int, list[np.ndarray | None]] = field(default_factory=dict, repr=False, compare=False)
 
     def normals(self, step: int) -> list[np.ndarray | None]:
-        """:func:`graphseg.geometry.point_normals` of every view's ``points`` (None where a view has none).
+        """:func:`graphseg.geometry.point_normals` of every view's ``points``, computed once per ``step``.
 
-        Computed on the first call for a ``step`` and kept in ``normal_cache``;
-        do not modify the returned arrays. O(total pixels) once per step.
+        Parameters
+        ----------
+        step : int
+            Pixel step of the central differences.
+
+        Returns
+        -------
+        list of float32 ``[H, W, 3]`` or None
+            Per view (None where the view has no points); read-only arrays,
+            kept in ``normal_cache`` under ``step``. The cache is keyed by the
+            step only: evidence with other ``points`` needs its own dict.
+
+        Raises
+        ------
+        ValueError
+            When ``points`` is None.
+
+        Notes
+        -----
+        O(total pixels) on the first call for a ``step``, O(1) after. The
+        cache holds one ``[H, W, 3]`` float32 map per view and step (as large as
+        the point maps) until the evidence is dropped.
 
         Examples
         --------
         >>> pts = np.zeros((3, 3, 3), np.float32); pts[..., 0], pts[..., 1] = np.mgrid[0:3, 0:3]
         >>> ev = Evidence([], points=[pts, None])
         >>> n = ev.normals(1)
-        >>> np.abs(n[0][1, 1]).tolist(), n[1], ev.normals(1) is n
-        ([0.0, 0.0, 1.0], None, True)
+        >>> np.abs(n[0][1, 1]).tolist(), n[1], ev.normals(1) is n, n[0].flags.writeable
+        ([0.0, 0.0, 1.0], None, True, False)
         """
         if self.points is None:
             raise ValueError("normals need world points (evidence.points is None)")
         step = int(step)
         if step not in self.normal_cache:
-            self.normal_cache[step] = [None if p is None else point_normals(np.asarray(p, np.float32), step) for p in self.points]
+            maps: list[np.ndarray | None] = []
+            for p in self.points:
+                n = None if p is None else point_normals(np.asarray(p, np.float32), step)
+                if n is not None:
+                    n.flags.writeable = False
+                maps.append(n)
+            self.normal_cache[step] = maps
         return self.normal_cache[step]
 
     @classmethod

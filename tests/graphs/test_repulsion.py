@@ -98,10 +98,16 @@ def test_given_normals_give_the_same_links_and_are_checked():
 
 def test_criteria_share_the_evidence_normals(monkeypatch):
     import graphseg.graphs.evidence as evidence_mod
+    import graphseg.graphs.repulsion as repulsion_mod
 
     calls = []
     real = evidence_mod.point_normals
     monkeypatch.setattr(evidence_mod, "point_normals", lambda p, step: calls.append(step) or real(p, step))
+
+    def recompute(*args, **kwargs):
+        raise AssertionError("normals recomputed instead of taken from the evidence")
+
+    monkeypatch.setattr(repulsion_mod, "point_normals", recompute)
     lab = np.zeros((40, 40), np.int64)
     lab[:, 20:] = 1
     x = (np.arange(40) - 19.5) * 0.002

@@ -254,3 +254,20 @@ def test_matches_not_needed_without_a_matches_criterion():
     scene, masks, _ = two_boxes_scene(parts=1)
     r = segment(scene, masks, None, Config(stages=[["chamfer_3d"]]))
     assert r.num_objects == 2 and r.info["num_matches"] == 0
+
+
+def test_robust_computes_each_views_normals_once(monkeypatch):
+    # robust: depth_repulsion in both stages and smooth_adjacency, all at normal_step 3, share one normal map per view
+    import graphseg.graphs.evidence as evidence_mod
+    import graphseg.graphs.repulsion as repulsion_mod
+
+    scene, masks, matches = two_boxes_scene()
+    cfg = Config.preset("robust")
+    expected = segment(scene, masks, matches, cfg)
+    calls = []
+    real = evidence_mod.point_normals
+    monkeypatch.setattr(evidence_mod, "point_normals", lambda p, step: calls.append(step) or real(p, step))
+    monkeypatch.setattr(repulsion_mod, "point_normals", lambda *a, **k: pytest.fail("normals recomputed by a criterion"))
+    result = segment(scene, masks, matches, cfg)
+    assert calls == [3] * scene.num_views
+    assert all(np.array_equal(a, b) for a, b in zip(result.labels, expected.labels)) and result.num_objects == 2
