@@ -123,14 +123,9 @@ def load_sam2(checkpoint: str | Path | None, config: str | None = None, *, image
         model = build_sam2(cfg, ckpt_path=None, device="cpu", hydra_overrides_extra=extra)
     except MissingConfigException:
         raise SceneError(f"no SAM 2 config {cfg!r} in the sam2 package (configs/sam2.1/sam2.1_hiera_{{t,s,b+,l}}.yaml)", field=f"{field}.config") from None
-    from .weights import load_state_dict_file
+    from .weights import load_into, load_state_dict_file
 
-    state = load_state_dict_file(path, "sam2", keys=("model",))
-    try:
-        model.load_state_dict(state, strict=True)
-    except (RuntimeError, TypeError, AttributeError) as err:
-        first = str(err).splitlines()[1 if "\n" in str(err) else 0].strip()
-        raise SceneError(f"checkpoint does not fit {cfg} ({first})", where=str(path), field=f"{field}.checkpoint") from None
+    load_into(model, load_state_dict_file(path, "sam2", keys=("model",)), path, "sam2", what=cfg)
     return model.to(device).eval()
 
 

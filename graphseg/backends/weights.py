@@ -99,7 +99,7 @@ def load_into(module: Any, state: dict[str, Any], path: Any, backend: str, optio
     """``module.load_state_dict(state, strict=True)``; a mismatch is one line naming ``what`` (default: ``backend``)."""
     try:
         module.load_state_dict(state, strict=True)
-    except RuntimeError as err:
+    except (RuntimeError, TypeError, AttributeError) as err:  # missing/unexpected keys, sizes; a non-tensor value
         lines = [ln.strip() for ln in str(err).splitlines() if ln.strip()]
         detail = lines[1] if len(lines) > 1 else lines[0]
         raise SceneError(f"weights do not fit {what or backend} ({detail[:200]})", where=str(path), field=f"backends.options.{backend}.{option}") from None

@@ -87,9 +87,9 @@ def test_sam2_missing_checkpoint_is_one_line(tmp_path):
 def test_sam2_wrong_checkpoint_and_config(tiny_sam2, tmp_path):
     bad = tmp_path / "weights.pt"
     torch.save({"model": {"not_a_key": torch.zeros(1)}}, bad)
-    with pytest.raises(SceneError, match="does not fit configs/sam2.1/sam2.1_hiera_t.yaml") as err:
+    with pytest.raises(SceneError, match="weights do not fit configs/sam2.1/sam2.1_hiera_t.yaml") as err:
         segmenters.resolve("sam2", checkpoint=str(bad), config="sam2.1_hiera_t", image_size=SIZE)
-    assert "\n" not in str(err.value)
+    assert "\n" not in str(err.value) and err.value.field == "backends.options.sam2.checkpoint" and err.value.where == str(bad)
     with pytest.raises(SceneError, match="cannot tell the SAM 2 config") as err:
         segmenters.resolve("sam2", checkpoint=str(bad))
     assert err.value.field == "backends.options.sam2.config"
