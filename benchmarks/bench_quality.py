@@ -15,7 +15,9 @@ Methods
     preset, no per-scene tuning. Targets are checked on the first preset.
 
 Metrics (``graphseg.metrics.evaluate``): mean IoU, F1, IoU_sel, Chamfer (m^2),
-precision, pixel utility, averaged over scenes.
+precision, pixel utility, panoptic quality (PQ: extra and missed objects count,
+which IoU cannot see) and the numbers of predicted and true objects, averaged
+over scenes.
 
 Targets (issue 4): synthetic mean IoU >= 0.80, F1 >= 0.88, pixel utility >=
 0.95; YCB-Video mean IoU >= 0.75; oracle-parts k = 1..4 IoU >= 0.95.
@@ -43,7 +45,7 @@ from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
-KEYS = ("iou", "f1", "iou_sel", "chamfer", "precision", "pixel_utility")
+KEYS = ("iou", "f1", "iou_sel", "chamfer", "precision", "pixel_utility", "pq", "num_pred", "num_gt")
 
 
 def synthetic_scenes(quick: bool):
@@ -103,7 +105,7 @@ def main(argv=None):
                 for vname, vcfg in variants.items():
                     r = segment(scene, masks, matches, vcfg)
                     m = evaluate(r.labels, gt, pts, names=scene.objects)
-                    acc[vname].append(m["mean"])
+                    acc[vname].append({**m["mean"], "num_pred": m["num_pred"], "num_gt": m["num_gt"]})
                     per_scene.append({"group": group, "scene": name, "method": method, "variant": vname, "objects_gt": m["num_gt"], "objects_pred": m["num_pred"], **m["mean"]})
             for vname in variants:
                 if not acc[vname]:
@@ -113,7 +115,7 @@ def main(argv=None):
                     vals = [a[k] for a in acc[vname] if a.get(k) is not None]
                     row[k] = float(np.mean(vals)) if vals else None
                 rows.append(row)
-                print(f"  {group:9s} {method:18s} {vname:26s} iou {row['iou']:.3f} f1 {row['f1']:.3f} util {row['pixel_utility']:.3f}", flush=True)
+                print(f"  {group:9s} {method:18s} {vname:26s} iou {row['iou']:.3f} f1 {row['f1']:.3f} util {row['pixel_utility']:.3f} pq {row['pq']:.3f} objects {row['num_pred']:.1f}/{row['num_gt']:.1f}", flush=True)
     first_cfg = next(iter(bases.values()))
     for matcher in args.matchers:  # matchers other than reprojection, default segmenter, first preset
         for group, scenes in groups:
@@ -123,7 +125,7 @@ def main(argv=None):
                 matches = compute_matches(scene, matcher, first_cfg)
                 r = segment(scene, masks, matches, first_cfg)
                 m = evaluate(r.labels, [v.instances for v in scene.views], [v.points for v in scene.views])
-                acc.append(m["mean"])
+                acc.append({**m["mean"], "num_pred": m["num_pred"], "num_gt": m["num_gt"]})
             if acc:
                 row = {"scenes": group, "segmenter": f"{base.backends.segmenter} + {matcher}", "variant": f"GraphSeg [{next(iter(bases))}]", "n": len(acc)}
                 for k in KEYS:
@@ -134,7 +136,7 @@ def main(argv=None):
     print()
     print_table(rows, ["scenes", "segmenter", "variant", "n", *KEYS])
     print("\nper scene:")
-    print_table(per_scene, ["group", "scene", "method", "variant", "objects_gt", "objects_pred", "iou", "f1", "pixel_utility"])
+    print_table(per_scene, ["group", "scene", "method", "variant", "objects_gt", "objects_pred", "iou", "f1", "pixel_utility", "pq"])
     first = next(iter(bases))
     default = [r for r in rows if r["variant"] == f"GraphSeg [{first}]"]
 

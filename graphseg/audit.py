@@ -51,6 +51,7 @@ __all__ = [
     "min_cut_edges",
     "audit",
     "format_audit",
+    "format_by_criterion",
     "audit_html",
 ]
 
@@ -388,6 +389,21 @@ def _criterion(graph: Any, e: int) -> str | None:
     return None if c is None else str(c[e])
 
 
+def format_by_criterion(by: Any, empty: str = "") -> str:
+    """The wrong edges per criterion as text: ``pixel_match: 3, chamfer_3d: 1`` (``empty`` when there are none).
+
+    Examples
+    --------
+    >>> format_by_criterion({"pixel_match": 3, "chamfer_3d": 1})
+    'pixel_match: 3, chamfer_3d: 1'
+    >>> format_by_criterion({}, empty="-")
+    '-'
+    """
+    if not isinstance(by, dict) or not by:
+        return empty
+    return ", ".join(f"{k}: {v}" for k, v in by.items())
+
+
 def format_audit(report: dict[str, Any], *, max_cut: int = 5) -> str:
     """Plain-text summary of :func:`audit` for the terminal.
 
@@ -403,7 +419,7 @@ def format_audit(report: dict[str, Any], *, max_cut: int = 5) -> str:
     if s.get("majority_grouping_iou") is not None:
         lines.append(f"  each mask to its majority object (a perfect graph): mean IoU {s['majority_grouping_iou']:.3f}")
     for st in report["stages"]:
-        by = ", ".join(f"{k}: {v}" for k, v in st["wrong_by_criterion"].items())
+        by = format_by_criterion(st.get("wrong_by_criterion"))
         lines.append(f"  stage {st['stage']}: {st['wrong']} of {st['edges']} edges join different objects" + (f" ({by})" if by else ""))
     for me in report["merge_errors"]:
         cut = "; ".join(f"s{c['stage']} {c['criterion']} v{c['views'][0]}:{c['mask_ids'][0]}-v{c['views'][1]}:{c['mask_ids'][1]}" for c in me["cut"][:max_cut])
@@ -425,7 +441,7 @@ def audit_html(report: dict[str, Any]) -> str:
 
     s = report["summary"]
     rows = "".join(
-        f"<tr><td>{st['stage']}</td><td>{st['edges']}</td><td>{st['wrong']}</td><td>{html.escape(str(st['wrong_by_criterion']))}</td></tr>" for st in report["stages"]
+        f"<tr><td>{st['stage']}</td><td>{st['edges']}</td><td>{st['wrong']}</td><td>{html.escape(format_by_criterion(st.get('wrong_by_criterion'), empty='-'))}</td></tr>" for st in report["stages"]
     )
     merges = "".join(
         f"<li>object {me['object']} merges {html.escape(str(me['gt'][0]))} and {html.escape(str(me['gt'][1]))}: "

@@ -1,9 +1,14 @@
 """The ``graphseg`` command: parses arguments and prints; the work is :func:`graphseg.job.run_job`.
 
 Exit codes: 0 success; 2 bad input (one line ``graphseg: error: FILE: FIELD: what
-is wrong``, no traceback, nothing left behind); 1 internal error (one line; pass
-``--debug`` for the traceback); 130 / 143 when interrupted by SIGINT / SIGTERM
-("interrupted; nothing written").
+is wrong``, no traceback, nothing left behind), bad arguments included (one line
+``graphseg: error: --preset: invalid choice 'robsut'; did you mean 'robust'? ...``,
+no usage block); 1 internal error (one line; pass ``--debug`` for the traceback);
+130 / 143 when interrupted by SIGINT / SIGTERM ("interrupted; nothing written");
+141 (128 + SIGPIPE, like ``cat`` or ``yes``) when the reader of standard output
+went away, as in ``graphseg info OUT | head -1``: nothing is printed on stderr,
+and the output files of ``run`` are complete (they are written before anything
+is printed).
 
 Commands: ``run``, ``eval``, ``synth``, ``demo``, ``export``, ``info``
 (``graphseg COMMAND --help`` for each).
@@ -14,18 +19,23 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import os
+import re
 import signal
 import sys
 import time
 import traceback
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn, TextIO
 
 __all__ = ["main", "build_parser", "parse_backend_option", "PRESET_NAMES"]
 
 #: The names of :data:`graphseg.config.PRESETS` (written out so that ``--help`` imports no config code; a test keeps them equal).
 PRESET_NAMES = ("rgbd", "paper", "robust")
+
+#: Exit status when standard output was closed by its reader (128 + SIGPIPE).
+EXIT_BROKEN_PIPE = 141
 
 
 class BadInput(Exception):
@@ -34,6 +44,75 @@ class BadInput(Exception):
 
 class Terminated(KeyboardInterrupt):
     """Raised by the SIGTERM handler so that every ``finally`` cleans up."""
+
+
+def _did_you_mean(word: str, choices: Sequence[str]) -> str:
+    from .graphs.criterion import did_you_mean
+
+    return did_you_mean(word, choices)
+
+
+def _argument_message(parser: argparse.ArgumentParser, message: str) -> str:
+    """argparse's error ``message`` rewritten as graphseg's one line ``FIELD: what is wrong``.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="graphseg run")
+    >>> _argument_message(p, "argument --seed: invalid int value: 'abc'")
+    "--seed: expected an integer (got 'abc')"
+    >>> _argument_message(p, "the following arguments are required: scene, -o/--out")
+    'scene, -o/--out: required by graphseg run (see graphseg run --help)'
+    >>> _argument_message(p, "argument --step: not allowed with argument --views")
+    '--step: not allowed with --views'
+    """
+    m = re.fullmatch(r"the following arguments are required: (.*)", message)
+    if m:
+        return f"{m.group(1)}: required by {parser.prog} (see {parser.prog} --help)"
+    m = re.fullmatch(r"ambiguous option: (\S+) could match (.*)", message)
+    if m:
+        return f"{m.group(1)}: ambiguous option; it could be {m.group(2)}"
+    m = re.fullmatch(r"argument (.+?): (.*)", message, flags=re.S)
+    if not m:
+        return message
+    name, what = m.group(1), m.group(2)
+    kinds = {"int": "an integer", "float": "a number"}
+    bad = re.fullmatch(r"invalid (\w+) value: (.*)", what)
+    if bad:
+        what = f"expected {kinds.get(bad.group(1), bad.group(1))} (got {bad.group(2)})"
+    return f"{name}: {what.replace('argument ', '')}"
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse with graphseg's errors: one line ``graphseg: error: FIELD: what is wrong``, exit 2.
+
+    No usage block is printed. An invalid choice, a misspelt subcommand and an
+    unknown option name the closest valid one. Sub-command parsers are of this
+    class too (``add_subparsers`` uses the parent's class).
+    """
+
+    def error(self, message: str) -> NoReturn:
+        _error(_argument_message(self, message))
+        self.exit(2)
+
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        if action.choices is not None and value not in action.choices:
+            choices = [str(c) for c in action.choices]
+            hint = _did_you_mean(str(value), choices)
+            raise argparse.ArgumentError(action, f"invalid choice {value!r}; " + (f"{hint} " if hint else "") + f"(choose from {', '.join(choices)})")
+
+    def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parser: argparse.ArgumentParser = self
+            for action in self._actions:  # unknown arguments of a sub-command: name its options
+                if isinstance(action, argparse._SubParsersAction) and getattr(ns, action.dest, None) in action.choices:
+                    parser = action.choices[getattr(ns, action.dest)]
+            option = next((e.split("=", 1)[0] for e in extras if e.startswith("-") and e != "-"), None)
+            if option is not None:
+                hint = _did_you_mean(option, [o for a in parser._actions for o in a.option_strings])
+                parser.error(f"{option}: unknown option; " + (hint or f"see {parser.prog} --help"))
+            parser.error(f"{parser.prog.split()[-1]}: unexpected argument {extras[0]!r} (see {parser.prog} --help)")
+        return ns
 
 
 def _views_args(p: argparse.ArgumentParser) -> None:
@@ -51,7 +130,7 @@ def _common(p: argparse.ArgumentParser, *, overwrite: bool = False) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="graphseg", description="Consistent object-level 3D segments from a few RGB(-D) views (GraphSeg).")
+    ap = ArgumentParser(prog="graphseg", description="Consistent object-level 3D segments from a few RGB(-D) views (GraphSeg).")
     ap.add_argument("--version", action="store_true", help="print the version and exit")
     ap.add_argument("--debug", action="store_true", help="print the traceback of an internal error")
     ap.add_argument("--quiet", action="store_true", help="no progress bars, no third-party banners or warnings")
@@ -177,6 +256,13 @@ def _metrics_table(metrics: dict[str, Any]) -> str:
     m = metrics["mean"]
     lines.append(f"{'mean':<28}" + "".join(f(m.get(k), k) for k in keys))
     lines.append(f"pixel utility: {m['pixel_utility']:.4f}" if m.get("pixel_utility") is not None else "pixel utility: -")
+    counts = [metrics.get("num_pred"), metrics.get("num_gt")]
+    parts = [f"{counts[0]} predicted, {counts[1]} true"] if all(isinstance(c, int) for c in counts) else []
+    pq = [m.get(k) for k in ("pq", "sq", "rq")]
+    if all(isinstance(v, (int, float)) for v in pq):  # absent in metrics.json files written before panoptic quality
+        parts.append(f"PQ {pq[0]:.2f} (SQ {pq[1]:.2f} x RQ {pq[2]:.2f})")
+    if parts:
+        lines.append("objects: " + "; ".join(parts))
     return "\n".join(lines)
 
 
@@ -214,6 +300,10 @@ def parse_backend_option(text: str) -> tuple[str, str, Any]:
     ('geometric', 'min_area', 200)
     >>> parse_backend_option("precomputed.folder=/data/masks")
     ('precomputed', 'folder', '/data/masks')
+    >>> parse_backend_option("geometric.min_area=.inf")
+    Traceback (most recent call last):
+    ...
+    graphseg.cli.BadInput: --backend-option: geometric.min_area: expected a finite number (got .inf)
     """
     from .config import load_yaml_text
 
@@ -227,7 +317,30 @@ def parse_backend_option(text: str) -> tuple[str, str, Any]:
         raise BadInput(f"--backend-option: {name}.{key}: cannot read the value ({str(err).splitlines()[0]})") from err
     if isinstance(parsed, (dict, list)) and value.strip()[:1] not in "[{":
         parsed = value
+    from .graphs.criterion import non_finite
+
+    bad = non_finite(parsed)
+    if bad is not None:
+        raise BadInput(f"--backend-option: {name}.{key}: expected a finite number (got {value.strip()})")
     return name, key, parsed
+
+
+def _load_config(text: str, base: Any = None) -> Any:
+    """``Config.load(text, base=base)``; every problem becomes one :class:`BadInput` line naming the file."""
+    import yaml
+    from pydantic import ValidationError
+
+    from .config import Config, load_error_message, validation_message
+
+    path = Path(text)
+    if not path.is_file():
+        raise BadInput(f"{path}: config: file not found")
+    try:
+        return Config.load(path, base=base)
+    except ValidationError as err:
+        raise BadInput(f"{path}: {validation_message(err)}") from err
+    except (yaml.YAMLError, json.JSONDecodeError, ValueError, UnicodeDecodeError, RecursionError) as err:
+        raise BadInput(f"{path}: config: {load_error_message(err)}") from err
 
 
 def _config(args: argparse.Namespace) -> Any:
@@ -235,19 +348,7 @@ def _config(args: argparse.Namespace) -> Any:
 
     cfg = Config.preset(getattr(args, "preset", None) or "rgbd")
     if getattr(args, "config", None):
-        import yaml
-        from pydantic import ValidationError
-
-        path = Path(args.config)
-        if not path.is_file():
-            raise BadInput(f"{path}: config: file not found")
-        try:
-            cfg = Config.load(path, base=cfg)
-        except ValidationError as err:
-            first = err.errors()[0]
-            raise BadInput(f"{path}: {'.'.join(str(x) for x in first['loc'])}: {first['msg']}") from err
-        except (yaml.YAMLError, json.JSONDecodeError, ValueError, UnicodeDecodeError, RecursionError) as err:
-            raise BadInput(f"{path}: config: {(str(err) or type(err).__name__).splitlines()[0]}") from err
+        cfg = _load_config(args.config, base=cfg)
     seed = getattr(args, "seed", None)
     if seed is not None:
         if seed < 0:
@@ -290,10 +391,19 @@ def _with_backend_options(cfg: Any, backend: str, **options: Any) -> Any:
     return cfg.model_copy(update={"backends": cfg.backends.model_copy(update={"options": opts})})
 
 
+def _dropped(result: Any) -> str:
+    """``"; K fragments ... became background"`` when the minimum support dropped some, else ``""``."""
+    sup = result.info.get("support") or {}
+    k = int(sup.get("dropped") or 0)
+    if not k:
+        return ""
+    return f"; {k} fragment{'s' if k > 1 else ''} below the minimum support (objects.min_views {sup.get('min_views')}, {sup.get('min_points')} points) became background"
+
+
 def _print_job(job: Any, args: argparse.Namespace, t: float) -> None:
     for w in job.warnings:
         _warn(w, args)
-    print(f"{job.result.num_objects} objects in {len(job.scene)} views ({time.perf_counter() - t:.1f} s)")
+    print(f"{job.result.num_objects} objects in {len(job.scene)} views ({time.perf_counter() - t:.1f} s){_dropped(job.result)}")
     if job.metrics:
         print(_metrics_table(job.metrics))
     print(_printable(f"output: {job.out}"))
@@ -320,16 +430,29 @@ def cmd_run(args: argparse.Namespace) -> int:
         inputs=inputs,
         **sel,
     )
+    asked, used = sel["num_views"], len(job.scene)
+    if asked is not None and used < asked:  # the readers select min(asked, views) views
+        _warn(f"--num-views {asked}: the scene has {used} views; using all {used}", args)
     _print_job(job, args, t)
     return 0
 
 
-def _write_json_file(path: str, doc: Any, *, inputs: list[str], overwrite: bool) -> None:
+def _kept(moved: list[tuple[Path, Path]], args: argparse.Namespace, shown: str | None = None, kind: str | None = None) -> None:
+    """One warning line per existing target that was kept as a backup instead of being deleted."""
+    from .output import backup_message
+
+    for old, new in moved:
+        _warn(backup_message(old, new, shown=shown, kind=kind), args)
+
+
+def _write_json_file(path: str, doc: Any, *, inputs: list[str], overwrite: bool, args: argparse.Namespace) -> None:
     from .output import atomic_file, check_target
 
     target = check_target(path, "export", inputs=inputs, overwrite=overwrite, folder=False)
-    with atomic_file(target) as tmp:
+    moved: list[tuple[Path, Path]] = []
+    with atomic_file(target, moved=moved) as tmp:
         tmp.write_text(json.dumps(doc, indent=2), encoding="utf-8")
+    _kept(moved, args, shown=path)
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
@@ -339,13 +462,14 @@ def cmd_eval(args: argparse.Namespace) -> int:
     if args.json:
         check_target(args.json, "export", inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, folder=False)
     metrics = evaluate_output(args.out, args.scene, audit=args.audit)
+    if args.json:  # written before anything is printed, so that a closed stdout cannot stop it
+        _write_json_file(args.json, metrics, inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, args=args)
     print(_metrics_table(metrics))
     if args.audit:
         from .audit import format_audit
 
         print(format_audit(metrics["audit"]))
     if args.json:
-        _write_json_file(args.json, metrics, inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite)
         print(_printable(f"wrote {args.json}"))
     return 0
 
@@ -373,9 +497,11 @@ def _check_synth_args(args: argparse.Namespace) -> None:
 
 
 def _fell_off(scene: Any, args: argparse.Namespace) -> None:
-    fell = scene.meta.get("fell_off") or []
-    if fell:
-        _warn(f"{len(fell)} of {len(fell) + len(scene.objects)} objects fell off the table: {', '.join(map(str, fell))}", args)
+    from .sim.pybullet_scenes import fell_off_warning
+
+    text = fell_off_warning(scene)
+    if text:
+        _warn(text, args)
 
 
 def cmd_synth(args: argparse.Namespace) -> int:
@@ -391,8 +517,10 @@ def cmd_synth(args: argparse.Namespace) -> int:
         from .sim.strip import rgb_only
 
         scene = rgb_only(scene, keep_intrinsics=not args.no_intrinsics)
-    with atomic_folder(out, "synth") as tmp:
+    moved: list[tuple[Path, Path]] = []
+    with atomic_folder(out, "synth", moved=moved) as tmp:
         fill_scene_folder(scene, tmp)
+    _kept(moved, args, shown=args.out, kind="synth")
     _fell_off(scene, args)
     print(_printable(f"wrote {args.out} ({len(scene)} views, {len(scene.objects)} objects, {time.perf_counter() - t:.1f} s)"))
     return 0
@@ -402,7 +530,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     from .config import Config
     from .io.scene_folder import fill_scene_folder
     from .job import run_job
-    from .output import MARKER, atomic_folder, check_target, fill_output
+    from .output import atomic_folder, check_target, fill_output, write_marker
     from .registry import MissingDependencyError
 
     _check_synth_args(args)
@@ -419,13 +547,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
         source = "boxes"
     job = run_job(scene, None, Config.preset(args.preset, seed=args.seed), progress=not _flag(args, "quiet"))
     info = {"scene": str(out / "scene"), "format": "native", "views": [v.name for v in scene.views], "source": source}
-    with atomic_folder(out, "demo") as tmp:
+    moved: list[tuple[Path, Path]] = []
+    with atomic_folder(out, "demo", moved=moved) as tmp:
         fill_scene_folder(scene, tmp / "scene")
         (tmp / "output").mkdir()
-        (tmp / "output" / MARKER).write_text(json.dumps({"kind": "run", "version": 1}), encoding="utf-8")
         fill_output(tmp / "output", job.result, job.scene, metrics=job.metrics, run_info=info)
-    for w in job.warnings:
+        write_marker(tmp / "output", "run", manifest=True)
+    for w in job.warnings:  # the scene's own warnings (objects that did not stay on the table) included
         _warn(w, args)
+    _kept(moved, args, shown=args.out, kind="demo")
     print(f"demo: {len(scene)} views, {len(scene.objects)} objects ({source}); found {job.result.num_objects} objects in {time.perf_counter() - t0:.1f} s")
     if job.metrics:
         print(_metrics_table(job.metrics))
@@ -467,14 +597,18 @@ def cmd_export(args: argparse.Namespace) -> int:
     if len({t for t, _ in checked}) != len(checked):
         raise BadInput(f"{args.out}: export: two exports name the same file")
     ply = check_target(args.ply, "export", inputs=inputs + [t for t, _ in checked], overwrite=args.overwrite) if args.ply else None
+    moved: list[tuple[Path, Path]] = []
     for target, writer in checked:
-        with atomic_file(target) as tmp:
+        with atomic_file(target, moved=moved) as tmp:
             writer(tmp)
         print(_printable(f"wrote {target}"))
+    _kept(moved, args)
     if ply is not None:
-        with atomic_folder(ply, "export") as tmp:
+        moved = []
+        with atomic_folder(ply, "export", moved=moved) as tmp:
             k = write_object_clouds(result, tmp)
         print(_printable(f"wrote {k} PLY files to {args.ply}"))
+        _kept(moved, args, shown=args.ply, kind="export")
     return 0
 
 
@@ -535,6 +669,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         raise BadInput("batch: give SCENES and -o OUT (or --report OUT)")
     if args.jobs < 1:
         raise BadInput(f"--jobs: expected >= 1 (got {args.jobs})")
+    for f in args.config or []:  # the same one-line messages as `graphseg run --config`, before any work
+        _load_config(f)
     gpus: float | str = args.ray_gpus
     if gpus != "auto":
         try:
@@ -548,7 +684,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     try:
         s = _run_batch(args, executor, methods)
     except KeyboardInterrupt as err:  # Terminated too
-        print(f"graphseg: interrupted; finished outputs are kept in {args.out} (run again to resume)", file=sys.stderr)
+        _interrupted(f"interrupted; finished outputs are kept in {args.out} (run again to resume)")
         return 143 if isinstance(err, Terminated) else 130
     print(f"{s.tasks} tasks: {s.ok} finished ({s.skipped} already done), {s.failed} failed ({s.seconds:.1f} s)")
     for r in s.records:
@@ -629,8 +765,95 @@ def _error(text: str) -> None:
     print(_printable(f"graphseg: error: {first}"), file=sys.stderr)
 
 
+def _interrupted(text: str = "interrupted; nothing written", stream: TextIO | None = None) -> None:
+    r"""``graphseg: interrupted; ...`` on its own line: on a terminal a progress bar may have left the cursor mid-line.
+
+    Examples
+    --------
+    >>> import io
+    >>> class Tty(io.StringIO):
+    ...     def isatty(self):
+    ...         return True
+    >>> tty, log = Tty(), io.StringIO()
+    >>> _ = tty.write(" 50%|#####     | 4/8")          # a progress bar, cursor mid-line
+    >>> _interrupted(stream=tty); _interrupted(stream=log)
+    >>> tty.getvalue()
+    ' 50%|#####     | 4/8\ngraphseg: interrupted; nothing written\n'
+    >>> log.getvalue()
+    'graphseg: interrupted; nothing written\n'
+    """
+    stream = sys.stderr if stream is None else stream
+    try:
+        tty = bool(stream.isatty())
+    except (AttributeError, ValueError, OSError):
+        tty = False
+    print(("\n" if tty else "") + f"graphseg: {text}", file=stream)
+
+
+def _reader_gone(fd: int) -> bool:
+    """True when ``fd`` is a pipe or socket whose reader has gone (poll reports an error or hang-up)."""
+    import select
+
+    if not hasattr(select, "poll"):  # pragma: no cover - Windows: a broken pipe there is nearly always stdout's
+        return fd == 1
+    try:
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poller.poll(0))
+    except (OSError, ValueError):
+        return False
+
+
+def _stdout_closed() -> bool:
+    """Whether standard output's reader went away (``graphseg info OUT | head -1``)."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, ValueError, OSError):  # replaced by a Python object: the error came from it
+        return True
+    return _reader_gone(fd)
+
+
+def _quiet_exit_after_broken_pipe() -> int:
+    """Point the closed standard streams at the null device so that nothing more fails, even at interpreter exit.
+
+    Python flushes ``sys.stdout`` at exit; without this, the buffered rest of the
+    output would raise BrokenPipeError again there ("Exception ignored ...").
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            fd = stream.fileno()
+        except (AttributeError, ValueError, OSError):
+            continue
+        if fd == 1 or _reader_gone(fd):
+            try:
+                null = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(null, fd)
+                os.close(null)
+            except OSError:  # pragma: no cover
+                pass
+    return EXIT_BROKEN_PIPE
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the console script; returns the exit code."""
+    """Entry point of the console script; returns the exit code.
+
+    When the reader of standard output goes away (``graphseg info OUT | head -1``)
+    the command stops printing and exits with :data:`EXIT_BROKEN_PIPE` (141),
+    silently: a closed pipe is not an input error.
+    """
+    try:
+        code = _main(argv)  # handles a broken pipe inside a command
+    except BrokenPipeError:  # printing the version or the help: standard output's
+        return _quiet_exit_after_broken_pipe()
+    try:
+        sys.stdout.flush()  # here, not at interpreter exit, so that a closed pipe is handled
+    except BrokenPipeError:
+        _quiet_exit_after_broken_pipe()
+        return code or EXIT_BROKEN_PIPE  # an error's own status wins
+    return code
+
+
+def _main(argv: list[str] | None) -> int:
     from pydantic import ValidationError
 
     from .graphs import GraphValidationError
@@ -638,7 +861,10 @@ def main(argv: list[str] | None = None) -> int:
     from .scene import SceneError
 
     ap = build_parser()
-    args = ap.parse_args(argv)
+    try:
+        args = ap.parse_args(argv)
+    except SystemExit as done:  # --help (0) or an argument error, already printed as one line (2)
+        return done.code if isinstance(done.code, int) else 2
     if args.version:
         from . import __version__
 
@@ -654,21 +880,26 @@ def main(argv: list[str] | None = None) -> int:
         _error(str(err))
         return 2
     except ValidationError as err:
-        first = err.errors()[0]
-        loc = ".".join(str(x) for x in first["loc"])
-        _error(f"{getattr(args, 'config', None) or 'config'}: {loc}: {first['msg']}")
+        from .config import validation_message
+
+        source = getattr(args, "config", None)
+        _error(f"{source if isinstance(source, str) else 'config'}: {validation_message(err)}")
         return 2
     except Terminated:
-        print("graphseg: interrupted; nothing written", file=sys.stderr)
+        _interrupted()
         return 143
     except KeyboardInterrupt:
-        print("graphseg: interrupted; nothing written", file=sys.stderr)
+        _interrupted()
         return 130
     except MemoryError:
         if _flag(args, "debug"):
             traceback.print_exc()
         _error("out of memory; select fewer views (--num-views / --step) or smaller images")
         return 1
+    except BrokenPipeError as err:
+        if _stdout_closed():
+            return _quiet_exit_after_broken_pipe()
+        return _internal_error(err, args)
     except OSError as err:
         name = str(err.filename or getattr(args, "out", None) or "path")
         what = "not found" if isinstance(err, FileNotFoundError) else (err.strerror or str(err))
@@ -680,11 +911,15 @@ def main(argv: list[str] | None = None) -> int:
             _error(f"{name}: path: {what}")
         return 2
     except Exception as err:
-        if _flag(args, "debug"):
-            traceback.print_exc()
-        text = (str(err).splitlines() or [""])[0]
-        print(_printable(f"graphseg: internal error: {type(err).__name__}: {text} (run again with --debug for the traceback)"), file=sys.stderr)
-        return 1
+        return _internal_error(err, args)
+
+
+def _internal_error(err: BaseException, args: argparse.Namespace) -> int:
+    if _flag(args, "debug"):
+        traceback.print_exc()
+    text = (str(err).splitlines() or [""])[0]
+    print(_printable(f"graphseg: internal error: {type(err).__name__}: {text} (run again with --debug for the traceback)"), file=sys.stderr)
+    return 1
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -33,12 +33,25 @@ Traceback (most recent call last):
 ...
 pydantic_core._pydantic_core.ValidationError: 1 validation error for Config
 stages.1.0
-  chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
+  chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune; did you mean 'tau'? [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
+
+Every number must be finite (``.inf`` and ``.nan`` are refused), and
+:func:`validation_message` turns a validation error into the one line the
+command line prints::
+
+    >>> from pydantic import ValidationError
+    >>> try:
+    ...     Config(background={"plane_tolerence": 0.02})
+    ... except ValidationError as err:
+    ...     print(validation_message(err))  # doctest: +ELLIPSIS
+    background.plane_tolerence: unknown key 'plane_tolerence'; did you mean 'plane_tolerance'? valid keys: enabled, plane, plane_tolerance, ...
 """
 
 from __future__ import annotations
 
 import json
+import types
+import typing
 from os import PathLike
 from pathlib import Path
 from typing import Any, ClassVar, Literal
@@ -47,6 +60,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    ValidationError,
     field_validator,
     model_serializer,
     model_validator,
@@ -57,6 +71,7 @@ __all__ = [
     "Config",
     "BackgroundConfig",
     "MaskConfig",
+    "ObjectConfig",
     "PairConfig",
     "CriterionSpec",
     "ContractorSpec",
@@ -65,11 +80,14 @@ __all__ = [
     "BackendConfig",
     "PRESETS",
     "load_yaml_text",
+    "validation_message",
+    "load_error_message",
 ]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    # allow_inf_nan=False: a threshold of .inf or .nan is an error, not a silently disabled rule
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 class BackgroundConfig(_Model):
@@ -90,6 +108,10 @@ class BackgroundConfig(_Model):
         "auto", description="pixels farther than this from their camera are background; 'auto': auto_distance_factor x median point distance"
     )
     auto_distance_factor: float = Field(1.5, gt=0)
+    beyond_table: bool = Field(
+        True, description="points whose foot on the plane lies outside the table's outline (convex hull of the plane points, see table_margin) are background"
+    )
+    table_margin: float = Field(0.05, ge=0, description="the table outline grows by this fraction of its size (scale-free)")
 
     @field_validator("max_distance")
     @classmethod
@@ -104,6 +126,22 @@ class MaskConfig(_Model):
     """Mask composition."""
 
     min_area: int = Field(20, ge=1, description="composed masks with fewer visible pixels are dropped")
+
+
+class ObjectConfig(_Model):
+    """The minimum support of an object; objects below it become background.
+
+    A final super-vertex is kept as an object only if its pixels with a valid 3D
+    point appear in at least ``min(min_views, number of views)`` views and
+    number at least ``min_point_fraction`` of one view's pixels over all views
+    (3e-4: 92 points at 640x480; a fraction, so the rule does not depend on the
+    image size). Below that it is a stray fragment (a patch of table texture, a
+    floor tile, a lifting artefact), not an object: its masks get object id 0
+    and ``Result.info["support"]`` lists it.
+    """
+
+    min_views: int = Field(2, ge=1, description="views an object must appear in (capped at the number of views)")
+    min_point_fraction: float = Field(3e-4, ge=0, le=1, description="valid 3D points an object needs over all views, as a fraction of one view's pixels")
 
 
 class PairConfig(_Model):
@@ -133,6 +171,16 @@ class BackendConfig(_Model):
     features: str = Field("color", description="feature extractor, run only when a criterion requires 'features'")
     options: dict[str, dict[str, Any]] = Field(default_factory=dict, description="constructor options by backend name")
 
+    @field_validator("options")
+    @classmethod
+    def _finite_options(cls, v: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        from .graphs.criterion import non_finite
+
+        bad = non_finite(v)
+        if bad is not None:
+            raise PydanticCustomError("finite_number", "{key}: expected a finite number (got {value})", {"key": bad[0], "value": repr(bad[1])})
+        return v
+
 
 def _split_spec(value: Any, what: str) -> tuple[str, Any]:
     """``name`` or ``{name: options}`` (or a spec) -> ``(name, options)``."""
@@ -154,7 +202,7 @@ def _split_spec(value: Any, what: str) -> tuple[str, Any]:
 class _PluginSpec(BaseModel):
     """A plugin by name with its validated options; written as ``name`` or ``{name: {options}}``."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
     name: str
     options: dict[str, Any] = Field(default_factory=dict)
 
@@ -343,6 +391,7 @@ class Config(_Model):
 
     background: BackgroundConfig = Field(default_factory=BackgroundConfig)
     masks: MaskConfig = Field(default_factory=MaskConfig)
+    objects: ObjectConfig = Field(default_factory=ObjectConfig)
     pairs: PairConfig = Field(default_factory=PairConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
     backends: BackendConfig = Field(default_factory=BackendConfig)
@@ -462,9 +511,11 @@ class Config(_Model):
 
         Raises
         ------
-        ValueError
-            For malformed files (``yaml.YAMLError`` and ``json.JSONDecodeError``
-            are ValueErrors too); pydantic's ValidationError for bad values.
+        ValueError or yaml.YAMLError
+            For malformed files (``json.JSONDecodeError`` and ``UnicodeDecodeError``
+            are ValueErrors; :func:`load_error_message` words any of them as one
+            line with its position); pydantic's ValidationError for bad values
+            (:func:`validation_message`).
 
         Examples
         --------
@@ -542,3 +593,144 @@ def load_yaml_text(text: str, *, max_nodes: int = 100_000) -> Any:
 
     size(node)
     return yaml.SafeLoader(text).get_single_data()
+
+
+# ----------------------------------------------------------------------------- messages
+def _models(root: type[BaseModel]) -> dict[str, type[BaseModel]]:
+    """``root`` and every model reachable through its fields, by class name."""
+    out: dict[str, type[BaseModel]] = {}
+
+    def visit(tp: Any) -> None:
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            if tp.__name__ not in out:
+                out[tp.__name__] = tp
+                for f in tp.model_fields.values():
+                    visit(f.annotation)
+        for arg in typing.get_args(tp):
+            visit(arg)
+
+    visit(root)
+    return out
+
+
+def _is_union(tp: Any) -> bool:
+    return typing.get_origin(tp) in (typing.Union, types.UnionType)
+
+
+def _walk(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[str], type[BaseModel] | None]:
+    """The printable path of ``loc`` below ``root`` and the model that holds its last key.
+
+    Components that are not keys (pydantic's union member tags such as
+    ``float`` or ``literal['auto']``) are left out.
+    """
+    path: list[str] = []
+    cur: Any = root
+    holder: type[BaseModel] | None = None
+    for part in loc:
+        while _is_union(cur):  # Optional[X] -> X; a real union ends the path (its tags follow)
+            members = [a for a in typing.get_args(cur) if a is not type(None)]
+            if len(members) != 1:
+                return path, holder
+            cur = members[0]
+        if isinstance(cur, type) and issubclass(cur, BaseModel):
+            holder = cur
+            path.append(str(part))
+            field = cur.model_fields.get(part) if isinstance(part, str) else None
+            if field is None:
+                return path, holder
+            cur = field.annotation
+        elif typing.get_origin(cur) in (list, tuple, dict, set, frozenset):
+            path.append(str(part))
+            args = typing.get_args(cur)
+            cur = args[-1] if args else Any
+        else:
+            return path, holder
+    return path, holder
+
+
+def validation_message(err: ValidationError, model: type[BaseModel] | None = None) -> str:
+    """The first error of a config validation error as one line, ``FIELD: what is wrong``.
+
+    A misspelt key names the closest valid key (``difflib``) and lists the
+    valid keys of its section; other errors name the value that was given.
+
+    Parameters
+    ----------
+    err : pydantic.ValidationError
+        Raised while building :class:`Config` or one of its sections.
+    model : pydantic model class, optional
+        The model that was validated (default: found from ``err.title`` among
+        :class:`Config` and its sections, else :class:`Config`).
+
+    Examples
+    --------
+    >>> try:
+    ...     Config.model_validate({"seed": -1})
+    ... except ValidationError as err:
+    ...     print(validation_message(err))
+    seed: Input should be greater than or equal to 0 (got -1)
+    >>> try:
+    ...     Config.model_validate({"stagse": []})
+    ... except ValidationError as err:
+    ...     print(validation_message(err))  # doctest: +ELLIPSIS
+    stagse: unknown key 'stagse'; did you mean 'stages'? valid keys: background, masks, ...
+    >>> try:
+    ...     Config.model_validate({"background": {"max_distance": float("inf")}})
+    ... except ValidationError as err:
+    ...     print(validation_message(err))
+    background.max_distance: Input should be a finite number (got inf)
+    """
+    from .graphs.criterion import did_you_mean
+
+    known = _models(Config)
+    root = model or known.get(err.title, Config)
+    first = err.errors()[0]
+    loc = tuple(first["loc"])
+    path, holder = _walk(root, loc)
+    where = ".".join(path) or "config"
+    if first["type"] == "extra_forbidden" and holder is not None and loc:
+        key = str(loc[-1])
+        valid = list(holder.model_fields)
+        candidates = valid + ([*LEGACY_SECTIONS, "adder_options"] if holder is Config else [])
+        hint = did_you_mean(key, candidates)
+        return f"{where}: unknown key {key!r}; " + (f"{hint} " if hint else "") + f"valid keys: {', '.join(valid)}"
+    msg = (str(first["msg"]).splitlines() or [""])[0]
+    value = first.get("input")
+    shown = isinstance(value, (bool, int, float)) or (isinstance(value, str) and len(value) <= 60)
+    if shown and repr(value) not in msg and first["type"] not in ("unknown_plugin", "criterion_options", "plugin_spec"):
+        msg += f" (got {value!r})"
+    return f"{where}: {msg}"
+
+
+def load_error_message(err: BaseException) -> str:
+    r"""A config file's syntax or encoding error as one line, with 1-based line and column.
+
+    Examples
+    --------
+    >>> import yaml
+    >>> try:
+    ...     load_yaml_text("background:\n  plane: true\n - x\n")
+    ... except yaml.YAMLError as err:
+    ...     print(load_error_message(err))
+    line 3, column 2: expected <block end>, but found '<block sequence start>' (while parsing a block mapping that starts at line 1, column 1)
+    >>> try:
+    ...     json.loads('{"seed": 1,}')
+    ... except json.JSONDecodeError as err:
+    ...     print(load_error_message(err))
+    line 1, column 12: Expecting property name enclosed in double quotes
+    """
+    if isinstance(err, json.JSONDecodeError):
+        return f"line {err.lineno}, column {err.colno}: {err.msg}"
+    if isinstance(err, UnicodeDecodeError):
+        return f"not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset {err.start})"
+    mark = getattr(err, "problem_mark", None)
+    problem = getattr(err, "problem", None)
+    if mark is not None and problem:
+        text = f"line {mark.line + 1}, column {mark.column + 1}: {problem}"
+        context, cmark = getattr(err, "context", None), getattr(err, "context_mark", None)
+        if context and cmark is not None:
+            text += f" ({context} that starts at line {cmark.line + 1}, column {cmark.column + 1})"
+        elif context:
+            text += f" ({context})"
+        return text
+    return (str(err) or type(err).__name__).splitlines()[0]

@@ -73,7 +73,8 @@ class JobResult:
     timings : dict of str to float
         Seconds per step: ``resolve``, ``read``, ``lift``, ``run``, ``evaluate``, ``write``, ``total``.
     warnings : list of str
-        One-line warnings (degenerate input, objects that fell off, ...).
+        One-line warnings (degenerate input, objects that fell off, an
+        existing output kept as ``OUT.graphseg-backup-N``, ...).
     """
 
     result: Result
@@ -215,7 +216,11 @@ def run_job(
         An in-memory scene or a scene folder in any supported layout.
     out : path-like or None
         Output folder: new, or an earlier graphseg output of ``kind`` (or
-        ``overwrite``). None: nothing is written.
+        ``overwrite``). None: nothing is written. An existing ``out`` that is
+        not exactly an earlier graphseg output of ``kind`` (a file added,
+        changed or removed; or another folder, with ``overwrite``) is kept as
+        ``OUT.graphseg-backup-N``, never deleted, and
+        :attr:`JobResult.warnings` says so.
     config : Config, optional
         Default ``Config()``.
     segmenter, matcher, lifter : name, class or instance, optional
@@ -227,7 +232,8 @@ def run_job(
     format : str, optional
         Scene layout (default: detected).
     overwrite : bool
-        Replace an existing target that is no graphseg output of ``kind``.
+        Replace an existing target that is no graphseg output of ``kind``
+        (it is kept as ``OUT.graphseg-backup-N``).
     progress : bool
         Progress bars (on stderr).
     inputs : sequence of path-like
@@ -250,7 +256,7 @@ def run_job(
         For unknown backends or missing extras, before any image is read.
     """
     from .io import detect_format, load_scene
-    from .output import check_target, write_output
+    from .output import backup_message, check_target, write_output
     from .pipeline import lift, run
 
     cfg = config or Config()
@@ -302,15 +308,20 @@ def run_job(
         metrics["audit"] = edge_audit(result, scene)
     timings["evaluate"] = time.perf_counter() - t
     warnings = list(result.info.get("warnings", []))
-    fell = scene.meta.get("fell_off")
+    from .sim.pybullet_scenes import fell_off_warning
+
+    fell = fell_off_warning(scene)
     if fell:
-        warnings.append(f"{len(fell)} object(s) fell off the table while the scene was made: {', '.join(map(str, fell))}")
+        warnings.append(fell)
     result.info["warnings"] = warnings
     path_out = None
     info["timings"] = dict(timings)  # read, lift, run, evaluate (run.json); the write is timed below
     t = time.perf_counter()
     if out is not None:
-        path_out = write_output(out, result, scene, metrics=metrics, run_info=info, inputs=all_inputs, overwrite=overwrite, kind=kind)
+        moved: list[tuple[Path, Path]] = []
+        path_out = write_output(out, result, scene, metrics=metrics, run_info=info, inputs=all_inputs, overwrite=overwrite, kind=kind, moved=moved)
+        # a new list: result.info["warnings"] (written to run.json) is about the result, not about this write
+        warnings = [*warnings, *(backup_message(old, kept, shown=out, kind=kind) for old, kept in moved)]
     timings["write"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     return JobResult(result, scene, metrics, path_out, timings, warnings)

@@ -15,6 +15,15 @@ voxel-downsampled world points.
 ``pixel_utility`` = ground-truth object pixels assigned to any predicted
 object / ground-truth object pixels.
 
+IoU, F1 and pixel utility never see a predicted object that overlaps no
+ground-truth object, so they cannot count phantom objects (stray fragments,
+floor tiles). Panoptic quality does (Kirillov et al., 2019): a ground-truth and
+a predicted object match when their IoU (pooled over views) exceeds 0.5, a match
+that is unique by construction. With TP matches, FP unmatched predicted objects
+and FN unmatched ground-truth objects, ``sq`` is the mean IoU of the matches,
+``rq = TP / (TP + FP / 2 + FN / 2)`` and ``pq = sq * rq``. ``num_pred`` and
+``num_gt`` count the objects.
+
 Examples
 --------
 >>> import numpy as np
@@ -37,7 +46,7 @@ from scipy.spatial import cKDTree
 from .graphs.chamfer import directed_chamfer, node_point_sets
 from .graphs.pixel_match import pair_counts
 
-__all__ = ["iou", "f1_score", "chamfer_distance", "contingency", "mean_iou", "evaluate", "METRIC_KEYS"]
+__all__ = ["iou", "f1_score", "chamfer_distance", "contingency", "mean_iou", "panoptic_quality", "evaluate", "METRIC_KEYS"]
 
 METRIC_KEYS = ("iou", "f1", "precision", "recall", "chamfer", "iou_sel")
 
@@ -145,6 +154,46 @@ def _iou_table(table: np.ndarray) -> np.ndarray:
     return np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
 
 
+def panoptic_quality(iou_table: np.ndarray) -> dict[str, float | int]:
+    """Panoptic quality from the IoU of every ground-truth (row) and predicted (column) object.
+
+    Parameters
+    ----------
+    iou_table : float ``[G, P]``
+        IoU of ground-truth object ``g`` and predicted object ``p``.
+
+    Returns
+    -------
+    dict
+        ``pq``, ``sq``, ``rq`` (floats; ``sq`` is 0 without a match, and all
+        three are 1 when both sets are empty) and the counts ``tp``, ``fp``, ``fn``.
+
+    Notes
+    -----
+    A pair matches when its IoU exceeds 0.5; each object then has at most one
+    match, because the masks of one side do not overlap. O(G P).
+
+    Examples
+    --------
+    >>> t = np.array([[0.9, 0.0, 0.0], [0.0, 0.6, 0.1]])   # 2 true objects, 3 predicted
+    >>> q = panoptic_quality(t)
+    >>> round(q["sq"], 3), round(q["rq"], 3), round(q["pq"], 3), q["fp"], q["fn"]
+    (0.75, 0.8, 0.6, 1, 0)
+    """
+    t = np.asarray(iou_table, np.float64)
+    if t.ndim != 2:
+        raise ValueError(f"expected iou_table of shape [G, P] (got {list(t.shape)})")
+    g, p = t.shape
+    matched = t > 0.5
+    tp = int(matched.sum())
+    fp, fn = p - tp, g - tp
+    if tp + fp + fn == 0:
+        return {"pq": 1.0, "sq": 1.0, "rq": 1.0, "tp": 0, "fp": 0, "fn": 0}
+    sq = float(t[matched].mean()) if tp else 0.0
+    rq = tp / (tp + 0.5 * fp + 0.5 * fn)
+    return {"pq": sq * rq, "sq": sq, "rq": rq, "tp": tp, "fp": fp, "fn": fn}
+
+
 def evaluate(
     pred: Sequence[np.ndarray],
     gt: Sequence[np.ndarray],
@@ -171,7 +220,10 @@ def evaluate(
     dict
         ``{"objects": [{"id", "name", "iou", "f1", "precision", "recall", "pred",
         "chamfer", "iou_sel", "pred_sel", "pixels"}], "mean": {...,
-        "pixel_utility"}, "num_gt", "num_pred"}``; ready for JSON.
+        "pixel_utility", "pq", "sq", "rq"}, "num_gt", "num_pred",
+        "panoptic": {"tp", "fp", "fn"}}``; ready for JSON. Only pixels with a
+        valid point count, so ``num_pred`` counts the predicted objects that
+        have at least one such pixel.
 
     Notes
     -----
@@ -231,4 +283,12 @@ def evaluate(
         vals = [r[key] for r in rows if r.get(key) is not None]
         mean[key] = float(np.mean(vals)) if vals else None
     mean["pixel_utility"] = assigned / gt_obj_pixels if gt_obj_pixels else None
-    return {"objects": rows, "mean": mean, "num_gt": int(g_obj.size), "num_pred": int(p_obj.size)}
+    pq = panoptic_quality(iou_all)
+    mean.update(pq=pq["pq"], sq=pq["sq"], rq=pq["rq"])
+    return {
+        "objects": rows,
+        "mean": mean,
+        "num_gt": int(g_obj.size),
+        "num_pred": int(p_obj.size),
+        "panoptic": {k: pq[k] for k in ("tp", "fp", "fn")},
+    }

@@ -14,22 +14,41 @@
       metrics.json           when the scene has ground truth
       report.html            overlays + interactive 3D view, works offline
 
-Safety rules (:func:`check_target`, :func:`atomic_folder`, :func:`atomic_file`):
+Safety rules (:func:`check_target`, :func:`atomic_folder`, :func:`atomic_file`).
+A user's files are never deleted or overwritten:
 
 * graphseg writes only to a path that does not exist, or to an earlier graphseg
   output of the same kind, recognised by its marker file ``.graphseg-output``
-  (``{"kind": "run" | "synth" | "demo" | "export", "version": 1}``). Anything
-  else is refused unless ``overwrite=True``.
+  (JSON: ``{"kind": "run" | "synth" | "demo" | "export" | "batch", "version": 1,
+  "graphseg": VERSION, "dirs": [...], "files": {PATH: [SIZE, MTIME_NS], ...}}``;
+  ``dirs`` and ``files``, the manifest of every folder and file graphseg wrote
+  there, are written when the folder is complete; markers without them, from
+  older versions, are still read). Anything else is refused unless
+  ``overwrite=True``.
+* An existing target is deleted only when it is a graphseg output of the same
+  kind whose contents are exactly its manifest (the same folders and files, of
+  the same sizes and modification times). Anything else that is replaced (a
+  folder that is no graphseg output, or of another kind, given
+  ``overwrite=True``; a graphseg output with a file added, changed or removed;
+  an older output without a manifest; an existing file given to
+  :func:`atomic_file`, unless it holds exactly the new bytes) is moved aside,
+  by one :func:`os.replace`, to the new sibling ``NAME.graphseg-backup-N``
+  (the first free ``N``; a file stays a file), and the ``moved`` list passed
+  to :func:`atomic_folder` / :func:`atomic_file` gets ``(old, backup)``, for
+  one line of :func:`backup_message`. :func:`clean_stale` never removes a
+  backup.
 * Even with ``overwrite=True``, a target that is, contains or lies inside an
   input of the command (or contains the working folder) is refused; so is a
   symbolic link at the target path.
 * Folders are built in a temporary sibling ``.NAME.graphseg-tmp-PID-XXXX`` (with
   the marker written first) and renamed into place; single files are written
-  inside such a marked sibling folder and moved with :func:`os.replace`. Stale
-  temporary siblings of dead processes that carry the marker are removed by
-  the next write to the same target.
+  inside such a marked sibling folder and moved with :func:`os.replace`. An
+  existing target is moved (aside or away) only after the new output is
+  complete. Stale temporary siblings of dead processes that carry the marker
+  are removed by the next write to the same target.
 * Interrupted (SIGINT, or SIGTERM in the command line) or failed writes remove
-  their temporary sibling and any parent folders they created.
+  their temporary sibling and any parent folders they created, and leave an
+  existing target where it was.
 * Created folders follow the umask.
 
 Examples
@@ -47,6 +66,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import filecmp
 import json
 import os
 import re
@@ -76,6 +96,8 @@ __all__ = [
     "atomic_file",
     "read_marker",
     "clean_stale",
+    "backup_message",
+    "BACKUP",
     "unique_file_names",
     "MARKER",
     "KINDS",
@@ -90,14 +112,22 @@ KINDS = ("run", "synth", "demo", "export", "batch")
 MARKER_VERSION = 1
 _TMP = ".graphseg-tmp-"
 _OLD = ".graphseg-old-"
+#: Infix of the sibling that keeps a replaced target: ``NAME.graphseg-backup-N``.
+BACKUP = ".graphseg-backup-"
+#: Largest marker file read (a run output's manifest lists thousands of files).
+MARKER_MAX_BYTES = 8 * 2**20
 
 
 # ----------------------------------------------------------------------------- marker, targets
 def read_marker(path: str | os.PathLike[str]) -> dict[str, Any] | None:
-    """The marker of a graphseg output folder, or None when ``path`` has no valid marker."""
+    """The marker of a graphseg output folder, or None when ``path`` has no valid marker.
+
+    Markers of older versions (no manifest) are read too; a marker larger than
+    :data:`MARKER_MAX_BYTES` is not.
+    """
     p = Path(path) / MARKER
     try:
-        if p.is_symlink() or not p.is_file() or p.stat().st_size > 4096:
+        if p.is_symlink() or not p.is_file() or p.stat().st_size > MARKER_MAX_BYTES:
             return None
         doc = json.loads(p.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -107,15 +137,208 @@ def read_marker(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     return doc
 
 
-def write_marker(folder: str | os.PathLike[str], kind: str) -> None:
-    """Mark ``folder`` as a graphseg output of ``kind`` (for folders filled incrementally, like a batch)."""
-    _write_marker(Path(folder), kind)
+def write_marker(folder: str | os.PathLike[str], kind: str, *, manifest: bool = False) -> None:
+    """Mark ``folder`` as a graphseg output of ``kind``.
+
+    Without ``manifest`` (folders filled incrementally, like a batch) the
+    folder is never deleted when replaced, only kept as a backup. With
+    ``manifest``, call it when the folder is complete (a nested output built
+    inside an :func:`atomic_folder`): the marker then lists the folder's files.
+    """
+    _write_marker(Path(folder), kind, manifest=manifest)
 
 
-def _write_marker(folder: Path, kind: str) -> None:
+def _write_marker(folder: Path, kind: str, *, manifest: bool = False) -> None:
+    """Write the marker of ``folder``; with ``manifest``, list the folder's current contents in it.
+
+    The marker is written to a temporary name and renamed, so it is never half
+    written. A folder whose contents cannot be listed (a symbolic link or a
+    special file in it) or whose manifest would exceed :data:`MARKER_MAX_BYTES`
+    gets a marker without a manifest: it will be kept as a backup, not
+    deleted, when replaced.
+    """
     from . import __version__
 
-    (folder / MARKER).write_text(json.dumps({"kind": kind, "version": MARKER_VERSION, "graphseg": __version__}), encoding="utf-8")
+    doc: dict[str, Any] = {"kind": kind, "version": MARKER_VERSION, "graphseg": __version__}
+    text = json.dumps(doc)
+    if manifest:
+        listed = _scan(folder)
+        if listed is not None:
+            doc["dirs"], doc["files"] = listed[1], {k: list(v) for k, v in sorted(listed[0].items())}
+            full = json.dumps(doc, separators=(",", ":"))
+            if len(full) <= MARKER_MAX_BYTES:
+                text = full
+    new = folder / f"{MARKER}.new"
+    new.write_text(text, encoding="utf-8")
+    os.replace(new, folder / MARKER)
+
+
+def _scan(root: Path, limit: int | None = None) -> tuple[dict[str, tuple[int, int]], list[str]] | None:
+    """The files ``{relative path: (size, mtime_ns)}`` and folders (sorted) under ``root``.
+
+    The top-level marker is left out. None when something else than plain
+    files and folders is found (a symbolic link, a socket...), when ``root``
+    cannot be read, or when it holds more than ``limit`` entries.
+    """
+    files: dict[str, tuple[int, int]] = {}
+    dirs: list[str] = []
+    stack = [(root, "")]
+    try:
+        while stack:
+            folder, rel = stack.pop()
+            with os.scandir(folder) as it:
+                for entry in it:
+                    name = rel + entry.name
+                    if not rel and entry.name == MARKER:
+                        continue
+                    if entry.is_symlink():
+                        return None
+                    if entry.is_dir(follow_symlinks=False):
+                        dirs.append(name)
+                        stack.append((Path(entry.path), name + "/"))
+                    elif entry.is_file(follow_symlinks=False):
+                        st = entry.stat(follow_symlinks=False)
+                        files[name] = (st.st_size, st.st_mtime_ns)
+                    else:
+                        return None
+                    if limit is not None and len(files) + len(dirs) > limit:
+                        return None
+    except OSError:
+        return None
+    return files, sorted(dirs)
+
+
+def _intact(path: Path, kind: str) -> bool:
+    """Whether ``path`` is a graphseg output of ``kind`` holding exactly what its manifest lists.
+
+    Only such a folder may be deleted when it is replaced: it holds nothing but
+    what graphseg wrote.
+    """
+    if path.is_symlink() or not path.is_dir():
+        return False
+    marker = read_marker(path)
+    if marker is None or marker.get("kind") != kind:
+        return False
+    files, dirs = marker.get("files"), marker.get("dirs")
+    if not isinstance(files, dict) or not isinstance(dirs, list):
+        return False
+    listed = _scan(path, limit=len(files) + len(dirs))
+    if listed is None:
+        return False
+    try:
+        want = {str(k): (int(v[0]), int(v[1])) for k, v in files.items()}
+    except (TypeError, ValueError, IndexError):
+        return False
+    return listed[0] == want and listed[1] == sorted(str(d) for d in dirs)
+
+
+def _reserve_backup(dest: Path, as_folder: bool) -> tuple[Path, tuple[int, int]]:
+    """Create an empty placeholder ``NAME.graphseg-backup-N`` (first free N) for ``dest`` to be renamed onto.
+
+    Created exclusively (``mkdir`` / ``O_EXCL``), so an existing path is never
+    taken; renaming a folder onto the empty placeholder folder (or a file onto
+    the empty placeholder file) is one atomic :func:`os.replace`. Returns the
+    placeholder and its identity (device, inode), for :func:`_release`.
+    """
+    for n in range(1, 100_000):
+        cand = dest.with_name(f"{dest.name}{BACKUP}{n}")
+        try:
+            if as_folder:
+                os.mkdir(cand, 0o700)
+            else:
+                os.close(os.open(cand, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        except FileExistsError:
+            continue
+        st = os.lstat(cand)
+        return cand, (st.st_dev, st.st_ino)
+    raise OSError(f"{dest}: no free backup name {dest.name}{BACKUP}N")
+
+
+def _is_placeholder(path: Path, ident: tuple[int, int]) -> bool:
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    return (st.st_dev, st.st_ino) == ident
+
+
+def _release(placeholder: Path, ident: tuple[int, int]) -> None:
+    """Remove a backup placeholder that was not used (only if it still is the very one made)."""
+    with contextlib.suppress(OSError):
+        if _is_placeholder(placeholder, ident):
+            if _is_folder(placeholder):
+                placeholder.rmdir()
+            else:
+                placeholder.unlink()
+
+
+def _is_folder(p: Path) -> bool:
+    return p.is_dir() and not p.is_symlink()
+
+
+def _put_in_place(new: Path, dest: Path, disposable: Any, kind: str) -> Path | None:
+    """Rename the complete ``new`` to ``dest``; return where an existing ``dest`` was kept, if anywhere.
+
+    An existing ``dest`` for which ``disposable(dest)`` holds is deleted (it is
+    first renamed into a marked ``.NAME.graphseg-old-PID-XXXX`` sibling and
+    checked again there, so that nothing added meanwhile is lost); any other
+    is renamed to a new ``NAME.graphseg-backup-N``. If renaming ``new`` fails
+    or is interrupted, the old ``dest`` is put back.
+    """
+    if not os.path.lexists(dest):
+        os.replace(new, dest)
+        return None
+    if disposable(dest):
+        old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_OLD}{os.getpid()}-", dir=dest.parent))
+        _write_marker(old, kind)
+        parked = old / "x"
+        try:
+            os.replace(dest, parked)
+            os.replace(new, dest)
+        except BaseException:
+            if os.path.lexists(parked) and not os.path.lexists(dest):
+                os.replace(parked, dest)  # put the old one back
+            if not os.path.lexists(parked):
+                shutil.rmtree(old, ignore_errors=True)
+            raise
+        if not disposable(parked):  # changed between the check and the move: keep it
+            backup, _ = _reserve_backup(dest, _is_folder(parked))
+            os.replace(parked, backup)
+            shutil.rmtree(old, ignore_errors=True)
+            return backup
+        shutil.rmtree(old, ignore_errors=True)
+        return None
+    backup, ident = _reserve_backup(dest, _is_folder(dest))
+    try:
+        os.replace(dest, backup)
+        os.replace(new, dest)
+    except BaseException:
+        if not os.path.lexists(dest) and not _is_placeholder(backup, ident):
+            os.replace(backup, dest)  # moved aside, the new one not in place: put the old one back
+        else:
+            _release(backup, ident)
+        raise
+    return backup
+
+
+def backup_message(old: str | os.PathLike[str], backup: str | os.PathLike[str], *, shown: str | os.PathLike[str] | None = None, kind: str | None = None) -> str:
+    """The one line telling where an existing target was kept (an entry of the ``moved`` list).
+
+    ``shown`` is the target as the user wrote it (the line then names both
+    paths that way); ``kind`` (for folders) adds why it was not deleted.
+
+    Examples
+    --------
+    >>> backup_message("/tmp/x/out", "/tmp/x/out.graphseg-backup-1", shown="out", kind="run")
+    'kept your existing out as out.graphseg-backup-1 (it was not a complete graphseg run output)'
+    >>> backup_message("/tmp/x/g.graphml", "/tmp/x/g.graphml.graphseg-backup-2")
+    'kept your existing /tmp/x/g.graphml as /tmp/x/g.graphml.graphseg-backup-2'
+    """
+    a, b = Path(old), Path(backup)
+    if shown is not None and Path(shown).name == a.name:
+        a, b = Path(shown), Path(shown).with_name(b.name)
+    why = f" (it was not a complete graphseg {kind} output)" if kind else ""
+    return f"kept your existing {a} as {b}{why}"
 
 
 def _related(a: Path, b: Path) -> bool:
@@ -144,7 +367,9 @@ def check_target(
         Files and folders the command reads: the target may not be, contain or
         lie inside any of them, even with ``overwrite``.
     overwrite : bool
-        Allow replacing an existing folder or file that is no graphseg output.
+        Allow replacing an existing folder or file that is no graphseg output
+        of ``kind`` (it is then kept as ``NAME.graphseg-backup-N``, see
+        :func:`atomic_folder`).
     folder : bool
         Whether the target is a folder (else a single file).
 
@@ -214,7 +439,8 @@ def clean_stale(out: str | os.PathLike[str]) -> list[Path]:
     """Remove temporary siblings of ``out`` left by killed graphseg runs; return them.
 
     Only folders named ``.NAME.graphseg-tmp-PID-*`` or ``.NAME.graphseg-old-PID-*``
-    that hold a graphseg marker and whose process ``PID`` is gone are removed.
+    that hold a graphseg marker and whose process ``PID`` is gone are removed;
+    never a backup ``NAME.graphseg-backup-N``, nor anything else.
     """
     p = Path(os.path.abspath(out))
     if not p.parent.is_dir():
@@ -282,36 +508,61 @@ def _marked_tmp(dest: Path, kind: str) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def atomic_folder(out: str | os.PathLike[str], kind: str) -> Iterator[Path]:
+def atomic_folder(out: str | os.PathLike[str], kind: str, *, moved: list[tuple[Path, Path]] | None = None) -> Iterator[Path]:
     """Build a folder in a temporary sibling and rename it to ``out`` on success.
 
     The caller has checked ``out`` with :func:`check_target`. The temporary
-    folder holds the marker from the start; an existing ``out`` is replaced
-    only after the new folder is complete. On any exception (including
-    KeyboardInterrupt) the temporary folder and any parent folders it created
-    are removed, and ``out`` is unchanged.
+    folder holds the marker from the start; when the body is done the marker
+    gets the manifest of the folder. An existing ``out`` is replaced only
+    after the new folder is complete: deleted if it is a graphseg output of
+    ``kind`` holding exactly its manifest, else moved aside to
+    ``NAME.graphseg-backup-N`` and ``(out, backup)`` appended to ``moved``
+    (absolute paths). On any exception (including KeyboardInterrupt) the
+    temporary folder and any parent folders it created are removed, and
+    ``out`` is unchanged.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp()
+    >>> os.mkdir(os.path.join(d, "out"))
+    >>> _ = Path(d, "out", "notes.txt").write_text("mine")
+    >>> moved = []
+    >>> with atomic_folder(os.path.join(d, "out"), "run", moved=moved) as tmp:
+    ...     _ = (tmp / "a.txt").write_text("hi")
+    >>> [(a.name, b.name) for a, b in moved]
+    [('out', 'out.graphseg-backup-1')]
+    >>> sorted(os.listdir(os.path.join(d, "out.graphseg-backup-1")))
+    ['notes.txt']
     """
     dest = Path(os.path.abspath(out))
     with _marked_tmp(dest, kind) as tmp:
         os.chmod(tmp, 0o777 & ~_umask())
         yield tmp
-        if dest.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_OLD}{os.getpid()}-", dir=dest.parent))
-            _write_marker(old, kind)
-            os.replace(dest, old / "x")
-            os.replace(tmp, dest)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, dest)
+        _write_marker(tmp, kind, manifest=True)
+        kept = _put_in_place(tmp, dest, lambda p: _intact(p, kind), kind)
+        if kept is not None and moved is not None:
+            moved.append((dest, kept))
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether ``a`` is a plain file with exactly the bytes of the plain file ``b``."""
+    try:
+        return not a.is_symlink() and a.is_file() and b.is_file() and filecmp.cmp(a, b, shallow=False)
+    except OSError:
+        return False
 
 
 @contextlib.contextmanager
-def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
+def atomic_file(path: str | os.PathLike[str], *, moved: list[tuple[Path, Path]] | None = None) -> Iterator[Path]:
     """Yield a temporary path to write; it replaces ``path`` on success, else is removed.
 
     The temporary file lives in a marked sibling folder
     ``.NAME.graphseg-tmp-PID-XXXX/`` so that :func:`clean_stale` can remove it
-    after a killed run, like the folders of :func:`atomic_folder`.
+    after a killed run, like the folders of :func:`atomic_folder`. An existing
+    ``path`` (which :func:`check_target` lets through only with ``overwrite``)
+    is moved aside to ``NAME.graphseg-backup-N`` and ``(path, backup)``
+    appended to ``moved``, unless it holds exactly the bytes just written.
     """
     dest = Path(os.path.abspath(path))
     with _marked_tmp(dest, "export") as box:
@@ -319,7 +570,13 @@ def atomic_file(path: str | os.PathLike[str]) -> Iterator[Path]:
         yield tmp
         if tmp.exists():
             os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, dest)
+
+        def disposable(p: Path) -> bool:  # the old file holds exactly the new bytes: nothing is lost
+            return _same_file(p, tmp if p == dest else dest)
+
+        kept = _put_in_place(tmp, dest, disposable, "export")
+        if kept is not None and moved is not None:
+            moved.append((dest, kept))
 
 
 # ----------------------------------------------------------------------------- writing
@@ -351,11 +608,15 @@ def write_output(
     inputs: Sequence[str | os.PathLike[str]] = (),
     overwrite: bool = False,
     kind: str = "run",
+    moved: list[tuple[Path, Path]] | None = None,
 ) -> Path:
     """Write every output file for ``result`` into ``out`` (see the module docstring).
 
     ``out`` must be new or an earlier graphseg output of ``kind`` (or
-    ``overwrite``); see :func:`check_target` for ``inputs``.
+    ``overwrite``); see :func:`check_target` for ``inputs``. An existing
+    ``out`` that is not exactly an earlier graphseg output of ``kind`` is kept
+    as ``OUT.graphseg-backup-N``, and ``(out, backup)`` appended to ``moved``
+    (see :func:`atomic_folder`).
 
     Raises
     ------
@@ -365,7 +626,7 @@ def write_output(
         When the parent folder cannot be written; nothing is left behind.
     """
     dest = check_target(out, kind, inputs=inputs, overwrite=overwrite)
-    with atomic_folder(dest, kind) as tmp:
+    with atomic_folder(dest, kind, moved=moved) as tmp:
         fill_output(tmp, result, scene, metrics=metrics, run_info=run_info)
     return dest
 

@@ -54,7 +54,7 @@ def _progress(iterable: Any, desc: str, enabled: bool, total: int | None = None)
         return iterable
     from tqdm.auto import tqdm
 
-    return tqdm(iterable, desc=desc, total=total, leave=False)
+    return tqdm(iterable, desc=desc, total=total, leave=False, disable=None)  # None: no bar when stderr is not a terminal
 
 
 def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scene:

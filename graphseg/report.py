@@ -131,6 +131,11 @@ def render_report(
         mean = metrics.get("mean", {})
         body += "<tr class='mean'><td>mean</td>" + "".join(f"<td>{_fmt(mean.get(k))}</td>" for k in keys) + "</tr>"
         rows = f"<h2>Metrics</h2><table>{head}{body}</table><p>pixel utility: {_fmt(mean.get('pixel_utility'))}</p>"
+        if metrics.get("num_pred") is not None:
+            pq = ""
+            if mean.get("pq") is not None:
+                pq = f"; panoptic quality {_fmt(mean['pq'])} (SQ {_fmt(mean.get('sq'))} &times; RQ {_fmt(mean.get('rq'))}: extra and missed objects count)"
+            rows += f"<p>objects: {int(metrics['num_pred'])} predicted, {int(metrics.get('num_gt', 0))} true{pq}</p>"
     if audit is not None:  # optional edge audit section (graphseg.audit)
         from .audit import audit_html
 

@@ -144,9 +144,11 @@ class Result:
     def load(cls, path: str | PathLike[str]) -> Result:
         """Read a file written by :meth:`save`.
 
-        Declared array sizes are checked against the file size and a cap before
-        anything is allocated; a corrupt or tampered file raises one
-        :class:`~graphseg.scene.SceneError` naming the file and the field.
+        Declared array sizes are checked against the file size, a cap and the
+        zip-bomb rule (:func:`graphseg.graphs.native.check_npz_sizes`) before
+        anything is decompressed or allocated; a corrupt, tampered or
+        bomb-like file raises one :class:`~graphseg.scene.SceneError` naming
+        the file and the entry.
         """
         from .graphs import GraphValidationError
         from .scene import SceneError

@@ -1,5 +1,6 @@
 import json
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -113,3 +114,25 @@ def test_majority_grouping_is_the_perfect_graph_score():
     merged = segment(scene, masks, matches, Config(stages=[[{"pixel_match": {"tau": 0.0, "min_matches": 1}}], [{"chamfer_3d": {"tau": 1e3}}]]))
     assert merged.num_objects == 1
     assert mean_iou(merged.labels, gt, pts) < audit(merged, scene)["summary"]["majority_grouping_iou"] - 0.2
+
+
+def test_wrong_edges_by_criterion_read_as_text_in_html_and_terminal():
+    from graphseg.audit import format_by_criterion
+
+    rep: dict[str, Any] = {
+        "summary": {"masks": 4, "impure_masks": 0, "edges": [5, 2], "wrong_edges": [4, 0], "merge_errors": 0, "cut_edges": 0},
+        "stages": [
+            {"stage": 0, "edges": 5, "wrong": 4, "wrong_by_criterion": {"pixel_match": 3, "chamfer_3d": 1}},
+            {"stage": 1, "edges": 2, "wrong": 0, "wrong_by_criterion": {}},
+        ],
+        "merge_errors": [],
+        "impure_masks": [],
+    }
+    page = audit_html(rep)
+    assert "<td>pixel_match: 3, chamfer_3d: 1</td>" in page and "<td>-</td>" in page
+    assert "{" not in page and "&#x27;" not in page  # no Python dict
+    text = format_audit(rep)
+    assert "  stage 0: 4 of 5 edges join different objects (pixel_match: 3, chamfer_3d: 1)" in text.splitlines()
+    assert "  stage 1: 0 of 2 edges join different objects" in text.splitlines()  # nothing to list: no brackets
+    assert format_by_criterion({"a<b": 1}) == "a<b: 1" and "a&lt;b: 1" in audit_html({**rep, "stages": [{**rep["stages"][0], "wrong_by_criterion": {"a<b": 1}}]})
+    assert format_by_criterion(None, empty="-") == "-"

@@ -400,8 +400,8 @@ def test_eval_audit_and_method(scene_dir, tmp_path, capsys):
     assert code == 0 and "audit:" in stdout and "stage 0:" in stdout
     m = json.loads((tmp_path / "m.json").read_text())
     assert set(m["audit"]) >= {"summary", "stages", "impure_masks", "merge_errors"}
-    with pytest.raises(SystemExit):
-        main(["run", str(scene_dir), "-o", str(tmp_path / "x"), "--method", "nope"])
+    code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "x", "--method", "nope"], capsys)
+    assert code == 2 and err.startswith("graphseg: error: --method: invalid choice 'nope'") and len(err.splitlines()) == 1
 
 
 def test_preset_names_match_the_presets(small_scene, tmp_path, capsys):
@@ -415,3 +415,259 @@ def test_preset_names_match_the_presets(small_scene, tmp_path, capsys):
     assert used == Config.preset("robust")
     assert used.stage_names() == [["pixel_match", "depth_repulsion"], ["chamfer_3d", "depth_repulsion", "smooth_adjacency"]]
     assert json.loads((tmp_path / "o" / "metrics.json").read_text())["mean"]["iou"] > 0.5
+
+
+# ------------------------------------------------------------------ a closed standard output (issue 19)
+ENTRY = "import sys\nfrom graphseg.cli import main\nsys.exit(main(sys.argv[1:]))"
+
+
+def _env():
+    import os
+    from pathlib import Path
+
+    return {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+
+
+def _closed_reader(args, cwd):
+    """Run graphseg with a stdout pipe whose read end is closed before it prints; (status, stderr)."""
+    import subprocess
+    import sys
+
+    p = subprocess.Popen([sys.executable, "-c", ENTRY, *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=_env(), cwd=cwd)
+    p.stdout.close()  # like `| head -1` once head has gone
+    with p.stderr:
+        err = p.stderr.read().decode()
+    return p.wait(timeout=120), err
+
+
+def test_closed_stdout_is_not_an_error(small_scene, tmp_path):
+    from graphseg.cli import EXIT_BROKEN_PIPE
+    from graphseg.result import Result
+
+    out = tmp_path / "out"
+    code, err = _closed_reader(["run", small_scene, "-o", out, "--quiet"], tmp_path)
+    assert (code, err) == (EXIT_BROKEN_PIPE, "")
+    assert Result.load(out / "result.npz").num_objects >= 1  # written completely before printing
+    assert (out / "report.html").is_file() and (out / "metrics.json").is_file() and (out / ".graphseg-output").is_file()
+    for args in (["info", out], ["eval", out], ["eval", out, "--audit"], ["info", small_scene]):
+        assert _closed_reader(args, tmp_path) == (EXIT_BROKEN_PIPE, ""), args
+    assert _closed_reader(["eval", out, "--json", tmp_path / "m.json"], tmp_path) == (EXIT_BROKEN_PIPE, "")
+    assert "mean" in json.loads((tmp_path / "m.json").read_text())  # files first, then printing
+    code, err = _closed_reader(["run", "--help"], tmp_path)  # argparse itself ignores the failed write
+    assert code in (0, EXIT_BROKEN_PIPE) and err == ""
+
+
+def test_closed_stdout_in_a_shell_pipeline(small_scene, tmp_path, capsys):
+    import shutil
+    import subprocess
+    import sys
+
+    bash = shutil.which("bash")
+    if bash is None:
+        pytest.skip("needs bash")
+    assert run_cli(["run", small_scene, "-o", tmp_path / "out", "--quiet"], capsys)[0] == 0
+    script = 'set -o pipefail; "$0" -c "$1" info "$2" | true; echo "status $?"'
+    r = subprocess.run([bash, "-c", script, sys.executable, ENTRY, str(tmp_path / "out")], capture_output=True, text=True, env=_env(), timeout=120)
+    assert r.stdout.strip() == "status 141" and r.stderr == ""
+
+
+def test_run_into_head_leaves_stderr_empty(small_scene, tmp_path):
+    """`graphseg run ... | head -1` (no --quiet): no progress bars when stderr is no terminal, no error."""
+    import shutil
+    import subprocess
+    import sys
+
+    bash = shutil.which("bash")
+    if bash is None:
+        pytest.skip("needs bash")
+    script = 'set -o pipefail; "$0" -c "$1" run "$2" -o "$3" | head -1; echo "status $?"'
+    r = subprocess.run([bash, "-c", script, sys.executable, ENTRY, str(small_scene), str(tmp_path / "out")], capture_output=True, text=True, env=_env(), timeout=300)
+    first, status = r.stdout.strip().splitlines()
+    assert "objects in" in first and status in ("status 0", "status 141") and r.stderr == ""
+    assert (tmp_path / "out" / "result.npz").is_file()
+
+
+def test_broken_pipe_while_printing(monkeypatch, scene_dir, tmp_path, capsys):
+    """A write that fails mid-command (the reader left) ends the command quietly with 141."""
+    import io
+    import sys
+
+    from graphseg import cli
+
+    run_cli(["run", scene_dir, "-o", tmp_path / "out", "--quiet"], capsys)
+
+    class Gone(io.StringIO):
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Gone())
+    code = cli.main(["info", str(tmp_path / "out")])
+    monkeypatch.undo()
+    assert code == cli.EXIT_BROKEN_PIPE and capsys.readouterr().err == ""
+
+
+def test_other_broken_pipes_are_internal_errors(monkeypatch, tmp_path, capsys):
+    """A broken pipe that is not standard output's is reported (exit 1), never blamed on a path."""
+    from graphseg import cli
+
+    def boom(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setitem(cli.COMMANDS, "info", boom)
+    monkeypatch.setattr(cli, "_stdout_closed", lambda: False)
+    code, _, err = run_cli(["info", tmp_path], capsys)
+    assert code == 1 and err.startswith("graphseg: internal error: BrokenPipeError") and "path" not in err
+
+
+# ------------------------------------------------------------------ argument errors: one line, exit 2
+@pytest.mark.parametrize(
+    "argv,line",
+    [
+        (["run", "S", "-o", "O", "--preset", "robsut"], "graphseg: error: --preset: invalid choice 'robsut'; did you mean 'robust'? (choose from rgbd, paper, robust)"),
+        (["run", "S", "-o", "O", "--method", "graphseg-mins"], "graphseg: error: --method: invalid choice 'graphseg-mins'; did you mean 'graphseg-minus'? (choose from graphseg, graphseg-minus, maskclustering, sam3d)"),
+        (["synth", "-o", "O", "--layout", "stackd"], "graphseg: error: --layout: invalid choice 'stackd'; did you mean 'stacked'? (choose from spread, touching, stacked)"),
+        (["demo", "--preset", "zzz"], "graphseg: error: --preset: invalid choice 'zzz'; (choose from rgbd, paper, robust)"),
+        (["rn", "S"], "graphseg: error: command: invalid choice 'rn'; did you mean 'run'? (choose from run, eval, synth, demo, export, info, batch)"),
+        (["run", "S"], "graphseg: error: -o/--out: required by graphseg run (see graphseg run --help)"),
+        (["eval"], "graphseg: error: out: required by graphseg eval (see graphseg eval --help)"),
+        (["run", "S", "-o", "O", "--seed", "abc"], "graphseg: error: --seed: expected an integer (got 'abc')"),
+        (["synth", "-o", "O", "--arc", "wide"], "graphseg: error: --arc: expected a number (got 'wide')"),
+        (["run", "S", "-o", "O", "--presett", "rgbd"], "graphseg: error: --presett: unknown option; did you mean '--preset'?"),
+        (["run", "S", "-o", "O", "--num_views=3"], "graphseg: error: --num_views: unknown option; did you mean '--num-views'?"),
+        (["--bogus"], "graphseg: error: --bogus: unknown option; see graphseg --help"),
+        (["info", "A", "B"], "graphseg: error: info: unexpected argument 'B' (see graphseg info --help)"),
+        (["run", "S", "-o", "O", "--views", "1", "--step", "2"], "graphseg: error: --step: not allowed with --views"),
+        (["run", "S", "-o", "O", "--seed"], "graphseg: error: --seed: expected one argument"),
+    ],
+)
+def test_argument_errors_are_one_line(argv, line, capsys):
+    code, stdout, err = run_cli(argv, capsys)
+    assert code == 2 and stdout == ""
+    assert err.splitlines() == [line]
+
+
+def test_help_still_works(capsys):
+    code, stdout, err = run_cli(["run", "--help"], capsys)
+    assert code == 0 and stdout.startswith("usage: graphseg run") and err == ""
+
+
+# ------------------------------------------------------------------ config errors say what to do
+@pytest.mark.parametrize(
+    "name,text,line",
+    [
+        ("c.yaml", "background:\n  plane: true\n - x\n", "config: line 3, column 2: expected <block end>, but found '<block sequence start>'"),
+        ("c.yaml", "seed: [1, 2\n", "config: line 2, column 1: expected ',' or ']', but got '<stream end>'"),
+        ("c.json", '{"seed": 1,\n "stages": }', "config: line 2, column 12: Expecting value"),
+        ("c.yaml", "background:\n  plane_tolerence: 0.02\n", "background.plane_tolerence: unknown key 'plane_tolerence'; did you mean 'plane_tolerance'? valid keys: enabled, plane, plane_tolerance,"),
+        ("c.yaml", "masks:\n  min_aera: 5\n", "masks.min_aera: unknown key 'min_aera'; did you mean 'min_area'? valid keys: min_area"),
+        ("c.yaml", "pairs:\n  mod: all\n", "pairs.mod: unknown key 'mod'; did you mean 'mode'? valid keys: mode, auto_max_views,"),
+        ("c.yaml", "output:\n  voxelsize: 0.01\n", "output.voxelsize: unknown key 'voxelsize'; did you mean 'voxel_size'? valid keys: voxel_size, stride"),
+        ("c.yaml", "backends:\n  segmentr: geometric\n", "backends.segmentr: unknown key 'segmentr'; did you mean 'segmenter'? valid keys: segmenter, matcher, lifter,"),
+        ("c.yaml", "sed: 3\n", "sed: unknown key 'sed'; did you mean 'seed'? valid keys: background, masks,"),
+        ("c.yaml", "colour: red\n", "colour: unknown key 'colour'; valid keys: background, masks,"),
+        ("c.yaml", "background:\n  max_distance: .inf\n", "background.max_distance: Input should be a finite number (got inf)"),
+    ],
+)
+def test_config_errors_say_where_and_what_to_do(name, text, line, small_scene, tmp_path, capsys):
+    cfg = tmp_path / name
+    cfg.write_text(text)
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--config", cfg, "--quiet"], capsys)
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith(f"graphseg: error: {cfg}: {line}"), err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "text,line",
+    [
+        ("background:\n  plane: true\n - x\n", "config: line 3, column 2: expected <block end>"),
+        ("masks:\n  min_aera: 5\n", "masks.min_aera: unknown key 'min_aera'; did you mean 'min_area'? valid keys: min_area"),
+    ],
+)
+def test_batch_config_errors_match_run(text, line, small_scene, tmp_path, capsys):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text)
+    code, _, err = run_cli(["batch", small_scene, "-o", tmp_path / "b", "--config", cfg, "--quiet"], capsys)
+    assert code == 2 and len(err.splitlines()) == 1 and err.startswith(f"graphseg: error: {cfg}: {line}"), err
+    assert not (tmp_path / "b").exists()
+
+
+def test_misspelt_stage_option_names_the_closest(small_scene, tmp_path, capsys):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("stages:\n  - [{pixel_match: {tua: 0.3}}]\n")
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--config", cfg, "--quiet"], capsys)
+    assert code == 2 and len(err.splitlines()) == 1
+    assert err.startswith(f"graphseg: error: {cfg}: stages.0.0: pixel_match: unknown option 'tua'; valid options: ")
+    assert err.rstrip().endswith("; did you mean 'tau'?")
+
+
+def test_validation_errors_outside_config_files_use_the_same_message(monkeypatch, tmp_path, capsys):
+    from pydantic import ValidationError
+
+    from graphseg import cli
+    from graphseg.config import Config
+
+    def bad(args):
+        try:
+            Config.model_validate({"pairs": {"max_rotaton": 1.0}})
+        except ValidationError:
+            raise
+        raise AssertionError("not reached")
+
+    monkeypatch.setitem(cli.COMMANDS, "info", bad)
+    code, _, err = run_cli(["info", tmp_path], capsys)
+    assert code == 2 and err.splitlines() == [
+        "graphseg: error: config: pairs.max_rotaton: unknown key 'max_rotaton'; did you mean 'max_rotation'? valid keys: mode, auto_max_views, max_rotation, max_translation, translation_scale"
+    ]
+
+
+# ------------------------------------------------------------------ small message gaps
+def test_num_views_above_the_scene_warns(small_scene, tmp_path, capsys):
+    code, stdout, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--num-views", "25", "--quiet"], capsys)
+    assert code == 0 and " in 3 views" in stdout
+    assert "graphseg: warning: --num-views 25: the scene has 3 views; using all 3" in err.splitlines()
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o2", "--num-views", "3", "--quiet"], capsys)
+    assert code == 0 and "--num-views" not in err
+
+
+def test_unknown_view_lists_the_valid_ones(small_scene, tmp_path, capsys):
+    code, _, err = run_cli(["run", small_scene, "-o", tmp_path / "o", "--views", "000,099", "--quiet"], capsys)
+    assert code == 2 and err.splitlines() == [f"graphseg: error: {small_scene / 'scene.json'}: views: unknown view 99; valid: 000, 001, 002 (3 views) or indices 0..2"]
+
+
+def test_interrupted_message_starts_a_new_line_on_a_terminal():
+    import io
+
+    from graphseg.cli import _interrupted
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty, pipe = Tty(), io.StringIO()
+    tty.write(" 40%|####      | 2/5 [00:01<00:01]")  # tqdm leaves the cursor here
+    _interrupted(stream=tty)
+    _interrupted(stream=pipe)
+    assert tty.getvalue().splitlines()[-1] == "graphseg: interrupted; nothing written"
+    assert pipe.getvalue() == "graphseg: interrupted; nothing written\n"  # a log file gets no blank line
+
+
+def test_metrics_table_shows_counts_and_panoptic_quality():
+    from graphseg.cli import _metrics_table
+
+    obj = {"id": 1, "name": "box", "iou": 0.9, "f1": 0.95, "chamfer": 1e-4, "iou_sel": 0.9, "precision": 0.97}
+    mean = {k: v for k, v in obj.items() if k not in ("id", "name")} | {"pixel_utility": 0.99}
+    new = {"objects": [obj], "mean": {**mean, "pq": 0.9123, "sq": 0.931, "rq": 0.98}, "num_gt": 4, "num_pred": 4}
+    assert _metrics_table(new).splitlines()[-1] == "objects: 4 predicted, 4 true; PQ 0.91 (SQ 0.93 x RQ 0.98)"
+    old = {"objects": [obj], "mean": mean, "num_gt": 4, "num_pred": 5}  # metrics.json written before PQ existed
+    assert _metrics_table(old).splitlines()[-1] == "objects: 5 predicted, 4 true"
+    older = {"objects": [obj], "mean": mean}
+    assert _metrics_table(older).splitlines()[-1].startswith("pixel utility:")
+
+
+def test_eval_and_run_print_the_object_counts(scene_dir, tmp_path, capsys):
+    code, stdout, _ = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet"], capsys)
+    assert code == 0 and "objects: 2 predicted, 2 true" in stdout
+    code, stdout, _ = run_cli(["eval", tmp_path / "o"], capsys)
+    assert code == 0 and "objects: 2 predicted, 2 true" in stdout
+

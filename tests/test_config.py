@@ -3,7 +3,13 @@ import pytest
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from graphseg.config import Config, CriterionSpec, migrate_config
+from graphseg.config import (
+    Config,
+    CriterionSpec,
+    load_error_message,
+    migrate_config,
+    validation_message,
+)
 from graphseg.graphs import Criterion, EdgeSet, edge_adders
 
 
@@ -142,3 +148,82 @@ def test_yaml_written_by_hand_in_the_new_form(tmp_path):
     c = Config.load(tmp_path / "c.yaml")
     assert c.criterion_options("chamfer_3d")["tau"] == 5e-5 and c.contractor.name == "union_find"
     assert yaml.safe_load(yaml.safe_dump(c.to_dict())) == c.to_dict()
+
+
+def _message(**data):
+    with pytest.raises(ValidationError) as err:
+        Config(**data)
+    return validation_message(err.value)
+
+
+@pytest.mark.parametrize(
+    "data,start",
+    [
+        ({"background": {"plane_tolerence": 0.02}}, "background.plane_tolerence: unknown key 'plane_tolerence'; did you mean 'plane_tolerance'? valid keys: enabled, plane, plane_tolerance, "),
+        ({"masks": {"min_aera": 3}}, "masks.min_aera: unknown key 'min_aera'; did you mean 'min_area'? valid keys: min_area"),
+        ({"pairs": {"max_rotaton": 1.0}}, "pairs.max_rotaton: unknown key 'max_rotaton'; did you mean 'max_rotation'? valid keys: mode, auto_max_views, max_rotation, max_translation, translation_scale"),
+        ({"output": {"strid": 2}}, "output.strid: unknown key 'strid'; did you mean 'stride'? valid keys: voxel_size, stride"),
+        ({"backends": {"lifer": "rgbd"}}, "backends.lifer: unknown key 'lifer'; did you mean 'lifter'? valid keys: segmenter, matcher, lifter, num_matches, features, options"),
+        ({"contractr": "star"}, "contractr: unknown key 'contractr'; did you mean 'contractor'? valid keys: background, masks, "),
+        ({"colour": "red"}, "colour: unknown key 'colour'; valid keys: background, masks, "),
+    ],
+)
+def test_misspelt_keys_name_the_closest_and_list_the_section(data, start):
+    assert _message(**data).startswith(start)
+
+
+def test_every_section_lists_its_own_keys():
+    for name, field in Config.model_fields.items():
+        model = field.annotation
+        if isinstance(model, type) and issubclass(model, BaseModel) and not hasattr(model, "_registry"):  # sections, not plugin specs
+            msg = _message(**{name: {"zzz_not_a_key": 1}})
+            assert msg == f"{name}.zzz_not_a_key: unknown key 'zzz_not_a_key'; valid keys: {', '.join(model.model_fields)}", msg
+
+
+@pytest.mark.parametrize(
+    "data,message",
+    [
+        ({"background": {"plane_tolerance": float("inf")}}, "background.plane_tolerance: Input should be a finite number (got inf)"),
+        ({"background": {"plane_tolerance": float("nan")}}, "background.plane_tolerance: Input should be a finite number (got nan)"),
+        ({"background": {"max_distance": float("inf")}}, "background.max_distance: Input should be a finite number (got inf)"),
+        ({"pairs": {"max_translation": float("inf")}}, "pairs.max_translation: Input should be a finite number (got inf)"),
+        ({"output": {"voxel_size": float("inf")}}, "output.voxel_size: Input should be a finite number (got inf)"),
+        ({"stages": [["pixel_match"], [{"chamfer_3d": {"tau": float("inf")}}]]}, "stages.1.0: chamfer_3d: option 'tau': expected a finite number (got inf)"),
+        ({"chamfer_3d": {"tau": float("inf")}}, "stages.1.0: chamfer_3d: option 'tau': expected a finite number (got inf)"),
+        ({"backends": {"options": {"geometric": {"min_area": float("inf")}}}}, "backends.options: geometric.min_area: expected a finite number (got inf)"),
+        ({"seed": -1}, "seed: Input should be greater than or equal to 0 (got -1)"),
+    ],
+)
+def test_numbers_must_be_finite(data, message):
+    assert _message(**data) == message
+
+
+def test_no_default_is_infinite():
+    from graphseg.graphs.criterion import non_finite
+
+    for name in ("paper", "rgbd", "robust"):
+        assert non_finite(Config.preset(name).to_dict()) is None, name
+
+
+def test_assignment_is_checked_too():
+    c = Config()
+    with pytest.raises(ValidationError, match="finite"):
+        c.background.plane_tolerance = float("inf")
+
+
+@pytest.mark.parametrize(
+    "name,text,message",
+    [
+        ("c.yaml", "background:\n  plane: true\n - x\n", "line 3, column 2: expected <block end>, but found '<block sequence start>' (while parsing a block mapping that starts at line 1, column 1)"),
+        ("c.yaml", "seed: 1\n\tmasks: {}\n", "line 2, column 1: found character '\\t' that cannot start any token (while scanning for the next token)"),
+        ("c.json", '{\n  "seed": 1\n  "masks": {}\n}', "line 3, column 3: Expecting ',' delimiter"),
+        ("c.yaml", b"seed: \xff\n", "not UTF-8 text (byte 0xff at offset 6)"),
+    ],
+)
+def test_syntax_errors_give_line_and_column(name, text, message, tmp_path):
+    p = tmp_path / name
+    p.write_bytes(text if isinstance(text, bytes) else text.encode())
+    with pytest.raises((ValueError, yaml.YAMLError)) as err:
+        Config.load(p)
+    assert load_error_message(err.value) == message
+

@@ -418,6 +418,34 @@ def rgb_empty_file(ws):
 
 
 @case
+def rgb_truncated_before_iend(ws):
+    p = ws.scene / "rgb" / "000.png"
+    p.write_bytes(p.read_bytes()[:-12])  # libpng prints "libpng error: ..." on fd 2 for this one
+    return run_args(ws), "views[0].rgb: cannot decode image (corrupt, truncated"
+
+
+@case
+def rgb_truncated_to_200_bytes(ws):
+    p = ws.scene / "rgb" / "001.png"
+    p.write_bytes(p.read_bytes()[:200])
+    return run_args(ws), "views[1].rgb: cannot decode"
+
+
+@case
+def depth_truncated(ws):
+    p = ws.scene / "depth" / "002.png"
+    p.write_bytes(p.read_bytes()[:-12])
+    return run_args(ws), "views[2].depth: cannot decode"
+
+
+@case
+def info_on_a_scene_with_a_truncated_png(ws):
+    p = ws.scene / "rgb" / "000.png"
+    p.write_bytes(p.read_bytes()[:-12])
+    return ["info", ws.scene], "views[0].rgb: cannot decode"
+
+
+@case
 def rgb_above_pixel_budget(ws):
     head = b"\x89PNG\r\n\x1a\n" + struct.pack(">I", 13) + b"IHDR" + struct.pack(">IIBBBBB", 100_000, 100_000, 8, 2, 0, 0, 0) + b"\0\0\0\0"
     (ws.scene / "rgb" / "000.png").write_bytes(head)
@@ -593,6 +621,56 @@ def config_binary(ws):
 @case
 def config_missing(ws):
     return run_args(ws, "--config", ws.root / "none.yaml"), "config: file not found"
+
+
+@case
+def config_infinite_stage_tau(ws):
+    return run_args(ws, "--config", ws.config("stages:\n  - [pixel_match]\n  - [{chamfer_3d: {tau: .inf}}]\n")), "stages.1.0: chamfer_3d: option 'tau': expected a finite number (got inf)"
+
+
+@case
+def config_infinite_legacy_tau(ws):
+    return run_args(ws, "--config", ws.config("chamfer_3d:\n  tau: .inf\n")), "chamfer_3d: option 'tau': expected a finite number (got inf)"
+
+
+@case
+def config_nan_plane_tolerance(ws):
+    return run_args(ws, "--config", ws.config("background:\n  plane_tolerance: .nan\n")), "background.plane_tolerance: Input should be a finite number (got nan)"
+
+
+@case
+def config_infinite_max_distance(ws):
+    return run_args(ws, "--config", ws.config("background:\n  max_distance: .inf\n")), "background.max_distance: Input should be a finite number (got inf)"
+
+
+@case
+def config_infinite_translation(ws):
+    return run_args(ws, "--config", ws.config("pairs:\n  max_translation: .inf\n")), "pairs.max_translation: Input should be a finite number (got inf)"
+
+
+@case
+def config_infinite_backend_option(ws):
+    return run_args(ws, "--config", ws.config("backends:\n  options:\n    geometric: {min_area: .inf}\n")), "backends.options: geometric.min_area: expected a finite number (got inf)"
+
+
+@case
+def backend_option_infinite(ws):
+    return run_args(ws, "--backend-option", "geometric.min_area=.inf"), "--backend-option: geometric.min_area: expected a finite number"
+
+
+@case
+def config_json_syntax(ws):
+    return run_args(ws, "--config", ws.config('{"seed": 3,\n  "masks": {"min_area": 5,}}', name="c.json")), "config: line 2, column 27: Expecting property name"
+
+
+@case
+def config_yaml_syntax(ws):
+    return run_args(ws, "--config", ws.config("background:\n  plane: true\n - x\n")), "config: line 3, column 2: expected <block end>"
+
+
+@case
+def config_misspelt_section_key(ws):
+    return run_args(ws, "--config", ws.config("background:\n  plane_tolerence: 0.02\n")), "background.plane_tolerence: unknown key 'plane_tolerence'; did you mean 'plane_tolerance'?"
 
 
 # precomputed masks
@@ -1026,3 +1104,99 @@ def test_memory_estimate_stops_a_run_before_it_starts(monkeypatch, tmp_path):
     with pytest.raises(SceneError, match="memory: 3 views of 64x48 need about"):
         run_job(box_scene(TWO_BOXES, views=3, shape=SHAPE), tmp_path / "o")
     assert not (tmp_path / "o").exists()
+
+
+# ----------------------------------------------------------------------------- zip bombs (issue 19)
+def _write_npz_with_bomb(npz: Path, member: str, shape: tuple[int, ...], dtype: str = "<u2", src: bytes | None = None) -> int:
+    """Write ``npz`` (the members of ``src``, if given) with ``member`` replaced by zeros of ``shape``, streamed through deflate.
+
+    Nothing of the array's size is allocated: a 70 MB entry costs 8 MiB of memory
+    and about 70 KB of file. Returns the declared size in bytes.
+    """
+    head = io.BytesIO()
+    np.lib.format.write_array_header_1_0(head, {"descr": dtype, "fortran_order": False, "shape": shape})
+    nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    chunk = bytes(8 * 2**20)
+    others = {}
+    if src is not None:
+        with zipfile.ZipFile(io.BytesIO(src)) as zin:
+            others = {i.filename: zin.read(i.filename) for i in zin.infolist() if i.filename != member}
+    with zipfile.ZipFile(npz, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name, data in others.items():
+            zout.writestr(name, data)
+        info = zipfile.ZipInfo(member)
+        info.compress_type = zipfile.ZIP_DEFLATED
+        with zout.open(info, "w", force_zip64=True) as f:
+            f.write(head.getvalue())
+            left = nbytes
+            while left:
+                f.write(chunk[: min(left, len(chunk))])
+                left -= min(left, len(chunk))
+    return nbytes + len(head.getvalue())
+
+
+def test_npz_zip_bomb_is_refused_before_decompressing(tmp_path, monkeypatch):
+    import time
+    import tracemalloc
+
+    from graphseg.graphs import GraphValidationError
+    from graphseg.graphs.native import BOMB_MIN_BYTES, BOMB_RATIO, bomb_limit, check_npz_sizes
+
+    monkeypatch.setenv("GRAPHSEG_MAX_PIXELS", "1000000")  # the bomb limit drops to its floor, 64 MiB
+    assert bomb_limit() == BOMB_MIN_BYTES
+    t = time.perf_counter()
+    size = _write_npz_with_bomb(tmp_path / "bomb.npz", "x.npy", (6000, 6000))  # 72 MB of zeros, 70 KB on disk
+    assert size > BOMB_MIN_BYTES and (tmp_path / "bomb.npz").stat().st_size * BOMB_RATIO < size
+    tracemalloc.start()
+    try:
+        with pytest.raises(GraphValidationError, match=r"bomb.npz: x: 68\.7 MiB compressed into .* KiB \(10\d\d:1\); refused as a zip bomb before decompressing"):
+            check_npz_sizes(tmp_path / "bomb.npz")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 8 * 2**20  # nothing of the 72 MB was allocated
+    assert time.perf_counter() - t < 5
+    # below the size floor the same ratio is fine: an all-zero label image of a real view
+    np.savez_compressed(tmp_path / "zeros.npz", labels=np.zeros((480, 640), np.uint16))
+    assert check_npz_sizes(tmp_path / "zeros.npz")["labels"][0] == (480, 640)
+
+
+def test_real_outputs_are_far_from_the_bomb_rule(base):
+    from graphseg.graphs.native import BOMB_RATIO, bomb_limit
+
+    with zipfile.ZipFile(base / "out" / "result.npz") as z:
+        worst = max(i.file_size / max(i.compress_size, 1) for i in z.infolist())
+        largest = max(i.file_size for i in z.infolist())
+    assert worst < BOMB_RATIO and largest < bomb_limit()
+
+
+@pytest.mark.parametrize("command", ["info", "eval"])
+def test_result_zip_bomb_exits_2_naming_the_entry(command, base, tmp_path, capfd, monkeypatch):
+    monkeypatch.setenv("GRAPHSEG_MAX_PIXELS", "1000000")
+    out = tmp_path / "out"
+    shutil.copytree(base / "out", out)
+    npz = out / "result.npz"
+    _write_npz_with_bomb(npz, "arrays/labels_0.npy", (6000, 6000), src=npz.read_bytes())
+    code = main([command, str(out)])
+    lines = capfd.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"graphseg: error: {npz}: arrays/labels_0: 68.7 MiB compressed into "), lines[0]
+    assert "refused as a zip bomb before decompressing" in lines[0]
+
+
+def test_truncated_png_gives_exactly_one_line_in_a_fresh_process(base, tmp_path):
+    """libpng writes its own error line to fd 2; a fresh process sees it exactly as a user does."""
+    import subprocess
+    import sys
+
+    scene = tmp_path / "scene"
+    shutil.copytree(base / "scene", scene)
+    png = scene / "rgb" / "000.png"
+    png.write_bytes(png.read_bytes()[:-12])
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    entry = "import sys\nfrom graphseg.cli import main\nsys.exit(main(sys.argv[1:]))"
+    for args in (["info", scene], ["run", scene, "-o", tmp_path / "o"]):
+        r = subprocess.run([sys.executable, "-c", entry, *map(str, args)], capture_output=True, text=True, env=env, timeout=120)
+        assert r.returncode == 2 and r.stderr.splitlines() == [f"graphseg: error: {png}: views[0].rgb: cannot decode image (corrupt, truncated or not an image)"], r.stderr
+    assert not (tmp_path / "o").exists()
+

@@ -89,3 +89,30 @@ def test_mean_iou_matches_evaluate_and_edge_cases():
     assert mean_iou([np.array([[7, 7, 7, 0]])], [np.array([[1, 1, 0, 2]])], [np.zeros((1, 4, 3))]) == pytest.approx(1 / 3)
     assert mean_iou([np.zeros((1, 2), int)], [np.zeros((1, 2), int)], [np.zeros((1, 2, 3))]) is None  # no object
     assert mean_iou([np.zeros((1, 2), int)], [np.ones((1, 2), int)], [np.zeros((1, 2, 3))]) == 0.0  # nothing predicted
+
+
+def test_panoptic_quality_hand_computed():
+    from graphseg.metrics import panoptic_quality
+
+    t = np.array([[0.8, 0.2, 0.0, 0.0], [0.0, 0.0, 0.5, 0.0], [0.0, 0.0, 0.0, 0.7]])
+    q = panoptic_quality(t)  # matches (0, 0) and (2, 3); IoU 0.5 is no match
+    assert (q["tp"], q["fp"], q["fn"]) == (2, 2, 1)
+    assert q["sq"] == pytest.approx(0.75)
+    assert q["rq"] == pytest.approx(2 / (2 + 1 + 0.5))
+    assert q["pq"] == pytest.approx(0.75 * 2 / 3.5)
+    assert panoptic_quality(np.zeros((0, 0)))["pq"] == 1.0
+    assert panoptic_quality(np.zeros((2, 0)))["pq"] == 0.0
+    with pytest.raises(ValueError, match=r"\[G, P\]"):
+        panoptic_quality(np.zeros(3))
+
+
+def test_evaluate_counts_phantom_objects():
+    """IoU cannot see an extra predicted object that covers only background; PQ and num_pred can."""
+    gt = [np.array([[1, 1, 0, 0, 2, 2]])]
+    pts = [np.zeros((1, 6, 3), np.float32)]
+    clean = evaluate([np.array([[1, 1, 0, 0, 2, 2]])], gt, pts)
+    phantom = evaluate([np.array([[1, 1, 3, 4, 2, 2]])], gt, pts)
+    assert clean["mean"]["iou"] == phantom["mean"]["iou"] == 1.0
+    assert (clean["num_pred"], phantom["num_pred"], phantom["num_gt"]) == (2, 4, 2)
+    assert clean["mean"]["pq"] == 1.0
+    assert phantom["mean"]["pq"] == pytest.approx(2 / 3) and phantom["panoptic"] == {"tp": 2, "fp": 2, "fn": 0}

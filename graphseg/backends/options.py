@@ -23,7 +23,17 @@ Examples
 ...     Demo(sise=8)
 ... except ValueError as err:
 ...     print(err)
-backends.options.demo.sise: unknown option; valid keys: size
+backends.options.demo.sise: unknown option; valid keys: size; did you mean 'size'?
+>>> class Scaled(ModelBackend):
+...     name, extra = "scaled", "torch"
+...     class Options(BaseModel):
+...         model_config = ConfigDict(extra="forbid")
+...         scale: float = 1.0
+>>> try:
+...     Scaled(scale=float("nan"))
+... except ValueError as err:
+...     print(err)
+backends.options.scaled.scale: expected a finite number (got nan)
 """
 
 from __future__ import annotations
@@ -55,18 +65,26 @@ def validate_options(model: type[BaseModel], options: dict[str, Any], backend: s
     Raises
     ------
     SceneError
-        For an unknown key (the message lists the valid keys) or a bad value.
+        For an unknown key (the message lists the valid keys and the closest
+        one), a bad value, or a float that is NaN or infinite.
     """
+    from ..graphs.criterion import did_you_mean, non_finite
+
     try:
-        return model(**options)
+        checked = model(**options)
     except ValidationError as err:
         e = err.errors()[0]
         key = ".".join(str(p) for p in e["loc"]) or "?"
         field = f"backends.options.{backend}.{key}"
         if e["type"] == "extra_forbidden":
             valid = ", ".join(model.model_fields)
-            raise SceneError(f"unknown option; valid keys: {valid}", field=field) from None
+            hint = did_you_mean(str(e["loc"][-1]) if e["loc"] else key, model.model_fields)
+            raise SceneError(f"unknown option; valid keys: {valid}" + (f"; {hint}" if hint else ""), field=field) from None
         raise SceneError(f"{e['msg']} (got {e.get('input')!r})", field=field) from None
+    bad = non_finite(checked)
+    if bad is not None:
+        raise SceneError(f"expected a finite number (got {bad[1]!r})", field=f"backends.options.{backend}.{bad[0]}")
+    return checked
 
 
 # packages whose declared dependencies pull torchvision or opencv-python: installed without them

@@ -110,13 +110,13 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     ext = pycolmap.FeatureExtractionOptions()
     ext.sift.peak_threshold = peak_threshold
     ext.sift.max_num_features = 8192
-    ext.num_threads = num_threads
+    ext.num_threads = 1  # (with several threads the results differ from run to run)
     ext.use_gpu = False
     match = pycolmap.FeatureMatchingOptions()
-    match.num_threads = num_threads
+    match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
     match.use_gpu = False
     inc = pycolmap.IncrementalPipelineOptions()
-    inc.num_threads = num_threads
+    inc.num_threads = 1  # multi-threaded bundle adjustment changes the result from run to run
     inc.random_seed = seed
     inc.min_model_size = 2
     inc.multiple_models = False
@@ -192,6 +192,8 @@ def run_sfm(
 def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, attempts: int) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
+    if hasattr(pycolmap, "set_random_seed"):
+        pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, num_threads, seed, known)
     names = [f"{i:04d}.png" for i in range(n)]
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:

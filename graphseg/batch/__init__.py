@@ -212,7 +212,7 @@ def run_batch(
     if progress and todo:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(todo), desc="batch", unit="task")
+        bar = tqdm(total=len(todo), desc="batch", unit="task", disable=None)  # no bar when stderr is not a terminal
 
     failed = 0
 
@@ -246,7 +246,10 @@ def rebuild_report(out: str | os.PathLike[str]) -> BatchSummary:
     state = _read_json(root / STATE)
     if state is None or state.get("format") != "graphseg-batch":
         raise SceneError(f"not a graphseg batch output (no valid {STATE})", where=str(root), field="output")
-    records = [r for p in sorted(root.glob("runs/*/*/views-*")) if (r := record_from_output(p)) is not None]
+    from ..output import BACKUP
+
+    runs = [p for p in sorted(root.glob("runs/*/*/views-*")) if BACKUP not in p.name]  # not an earlier output kept aside
+    records = [r for p in runs if (r := record_from_output(p)) is not None]
     ok_keys = {r["key"] for r in records}
     for f in state.get("failed") or []:
         if f.get("key") not in ok_keys:

@@ -48,7 +48,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     -------
     dict
         ``{"key", "status": "ok" | "failed", "error", "metrics" (means), "timings",
-        "num_objects", "seconds", "pid", ...}`` plus the task's identifying fields.
+        "num_objects", "warnings", "seconds", "pid", ...}`` plus the task's identifying fields.
     """
     from ..config import Config
     from ..job import run_job
@@ -80,6 +80,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
             num_objects=job.result.num_objects,
             metrics=(job.metrics or {}).get("mean"),
             timings=stage_timings(job.result.info, job.timings),
+            warnings=list(job.warnings),  # e.g. an earlier output of the task kept as OUT.graphseg-backup-N
         )
     except (SceneError, PluginNotFoundError, MissingDependencyError, FileNotFoundError, ValueError) as err:
         rec.update(status="failed", error=_one_line(err))

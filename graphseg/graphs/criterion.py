@@ -36,12 +36,13 @@ Examples
 >>> build_criterion(Everything, {"weigth": 2})
 Traceback (most recent call last):
 ...
-graphseg.graphs.criterion.CriterionOptionsError: everything: unknown option 'weigth'; valid options: weight
+graphseg.graphs.criterion.CriterionOptionsError: everything: unknown option 'weigth'; valid options: weight; did you mean 'weight'?
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -60,6 +61,8 @@ __all__ = [
     "criterion_info",
     "build_criterion",
     "validate_options",
+    "did_you_mean",
+    "non_finite",
     "NoOptions",
 ]
 
@@ -183,13 +186,60 @@ def criterion_info(cls: Any, name: str | None = None) -> CriterionInfo:
     return CriterionInfo(str(getattr(cls, "name", None) or label), opts, req, red, tags)
 
 
+def did_you_mean(word: str, choices: Iterable[str]) -> str:
+    """The hint ``did you mean 'x'?`` for the closest of ``choices`` to ``word`` (``difflib``), or ``""``.
+
+    Examples
+    --------
+    >>> did_you_mean("stpe", ["step", "tau"])
+    "did you mean 'step'?"
+    >>> did_you_mean("zzz", ["step", "tau"])
+    ''
+    """
+    import difflib
+
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
+    return f"did you mean {close[0]!r}?" if close else ""
+
+
+def non_finite(value: Any, path: str = "") -> tuple[str, float] | None:
+    """The first float in ``value`` (nested dicts, lists, models) that is NaN or infinite, as ``(path, value)``.
+
+    Examples
+    --------
+    >>> non_finite({"a": 1.0, "b": [0.5, float("inf")]})
+    ('b.1', inf)
+    >>> non_finite({"a": 1.0, "b": "inf"}) is None
+    True
+    """
+    if isinstance(value, BaseModel):
+        value = {k: getattr(value, k) for k in type(value).model_fields}
+    if isinstance(value, float):
+        return None if math.isfinite(value) else (path, value)
+    if isinstance(value, Mapping):
+        items: Iterable[tuple[Any, Any]] = value.items()
+    elif isinstance(value, (list, tuple)):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = non_finite(item, f"{path}.{key}" if path else str(key))
+        if found is not None:
+            return found
+    return None
+
+
 def validate_options(options_model: type[BaseModel] | None, options: Mapping[str, Any] | None, *, label: str = "criterion") -> BaseModel | dict[str, Any]:
     """Validate ``options`` against ``options_model``; legacy classes (no model) keep the dict.
+
+    Every float, however deeply nested, must be finite (NaN and infinities are
+    refused even where the plugin's own model would allow them).
 
     Raises
     ------
     CriterionOptionsError
-        One line naming the bad key and listing the valid ones.
+        One line naming the bad key and listing the valid ones (with the closest
+        valid key for a misspelt one).
 
     Examples
     --------
@@ -199,19 +249,34 @@ def validate_options(options_model: type[BaseModel] | None, options: Mapping[str
     Traceback (most recent call last):
     ...
     graphseg.graphs.criterion.CriterionOptionsError: x: unknown option 'k'; valid options: (none)
+    >>> from graphseg.graphs.chamfer import Chamfer3D
+    >>> validate_options(Chamfer3D.Options, {"tua": 1e-4}, label="chamfer_3d")
+    Traceback (most recent call last):
+    ...
+    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: unknown option 'tua'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune; did you mean 'tau'?
+    >>> validate_options(Chamfer3D.Options, {"tau": float("inf")}, label="chamfer_3d")
+    Traceback (most recent call last):
+    ...
+    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: option 'tau': expected a finite number (got inf)
     """
     data = dict(options or {})
     if options_model is None:
-        return data
-    try:
-        return options_model.model_validate(data)
-    except ValidationError as err:
+        checked: BaseModel | dict[str, Any] = data
+    else:
         valid = ", ".join(options_model.model_fields) or "(none)"
-        first = err.errors()[0]
-        key = ".".join(str(x) for x in first["loc"]) or "(options)"
-        if first["type"] == "extra_forbidden":
-            raise CriterionOptionsError(f"{label}: unknown option {key!r}; valid options: {valid}") from None
-        raise CriterionOptionsError(f"{label}: option {key!r}: {first['msg']} (got {first.get('input')!r}); valid options: {valid}") from None
+        try:
+            checked = options_model.model_validate(data)
+        except ValidationError as err:
+            first = err.errors()[0]
+            key = ".".join(str(x) for x in first["loc"]) or "(options)"
+            if first["type"] == "extra_forbidden":
+                hint = did_you_mean(str(first["loc"][-1]) if first["loc"] else key, options_model.model_fields)
+                raise CriterionOptionsError(f"{label}: unknown option {key!r}; valid options: {valid}" + (f"; {hint}" if hint else "")) from None
+            raise CriterionOptionsError(f"{label}: option {key!r}: {first['msg']} (got {first.get('input')!r}); valid options: {valid}") from None
+    bad = non_finite(checked)
+    if bad is not None:
+        raise CriterionOptionsError(f"{label}: option {bad[0]!r}: expected a finite number (got {bad[1]!r})")
+    return checked
 
 
 def build_criterion(cls: Any, options: Mapping[str, Any] | BaseModel | None = None, *, name: str | None = None) -> Any:

@@ -5,8 +5,9 @@
 * GraphML: :func:`write_graphml` / :func:`read_graphml` through networkx. GraphML
   holds scalars only, so vector columns are flattened (``bbox`` ->
   ``bbox_0..bbox_3``) and a JSON schema in the graph attributes restores names,
-  dtypes and shapes: lossless for every scalar attribute. Masks are not part of
-  GraphML; use :mod:`graphseg.graphs.native` for them.
+  dtypes and shapes: lossless for every scalar attribute. An edge has no
+  ``<data>`` for a numeric attribute it has no value for (NaN / -1 in memory).
+  Masks are not part of GraphML; use :mod:`graphseg.graphs.native` for them.
 * PyG: :func:`to_pyg` / :func:`from_pyg`.
 
 Examples
@@ -97,13 +98,49 @@ def _unflatten(rows: list[dict[str, Any]], schema: dict[str, Any], limit: int | 
     return out
 
 
-def to_networkx(graph: CorrespondenceGraph) -> Any:
+def _missing_tests(cols: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Per flattened column name, the test for "this edge has no value" (:func:`graphseg.graphs.graph.fill_value`).
+
+    NaN in float columns and -1 in signed integer columns are what a graph
+    stores for an edge that lacks the column (a Chamfer edge has no pixel
+    ``count``); :func:`_unflatten` restores exactly these values for an
+    absent key, so leaving them out is lossless.
+    """
+    tests: dict[str, Any] = {}
+    for name, col in cols.items():
+        if col.dtype.kind == "f":
+            test: Any = _is_nan
+        elif col.dtype.kind == "i":
+            test = _is_minus_one
+        else:
+            continue
+        width = int(np.prod(col.shape[1:], dtype=np.int64))
+        for key in [name] if col.ndim == 1 else [f"{name}_{j}" for j in range(width)]:
+            tests[key] = test
+    return tests
+
+
+def _is_nan(x: Any) -> bool:
+    return bool(x != x)
+
+
+def _is_minus_one(x: Any) -> bool:
+    return bool(x == -1)
+
+
+def to_networkx(graph: CorrespondenceGraph, *, omit_missing: bool = False) -> Any:
     """A ``networkx.MultiGraph`` with scalar node/edge attributes.
 
     Nodes are ``0..N-1``; edge keys are the edge positions ``0..E-1`` and the
     edge attribute ``graphseg_src`` keeps each edge's stored orientation. Vector
     columns are flattened to ``name_j``; the graph attribute ``graphseg_schema``
     (JSON) records names, dtypes, shapes, ``level``, ``meta`` and ``members``.
+
+    With ``omit_missing`` an edge lacks the attributes it has no value for
+    (NaN in a float column, -1 in an integer column: the placeholders a graph
+    stores when edges of different criteria are joined, like ``count`` and
+    ``ratio`` of a Chamfer edge or ``multiplicity`` of an edge added after a
+    contraction); :func:`from_networkx` restores the placeholders.
 
     Notes
     -----
@@ -127,9 +164,11 @@ def to_networkx(graph: CorrespondenceGraph) -> Any:
     for i in range(graph.num_nodes):
         g.add_node(i, **{k: v[i] for k, v in ncols.items()})
     ecols = _flatten(graph.edge_attr, graph.num_edges)
+    missing = _missing_tests(graph.edge_attr) if omit_missing else {}
     src, dst = graph.edge_index.tolist()
     for e in range(graph.num_edges):
-        g.add_edge(src[e], dst[e], key=e, graphseg_src=src[e], **{k: v[e] for k, v in ecols.items()})
+        attrs = {k: v[e] for k, v in ecols.items() if k not in missing or not missing[k](v[e])}
+        g.add_edge(src[e], dst[e], key=e, graphseg_src=src[e], **attrs)
     return g
 
 
@@ -184,6 +223,11 @@ def from_networkx(g: Any, *, limit: int | None = 10**9) -> CorrespondenceGraph:
 def write_graphml(graph: CorrespondenceGraph, path: str | PathLike[str]) -> None:
     """Write ``graph`` as GraphML (through networkx).
 
+    An edge carries no ``<data>`` for an attribute it has no value for (see
+    ``omit_missing`` in :func:`to_networkx`): a Chamfer edge has no ``count``
+    or ``ratio``, an edge added after a contraction no ``multiplicity``.
+    :func:`read_graphml` restores the in-memory placeholders (NaN, -1).
+
     Examples
     --------
     >>> import tempfile, os
@@ -196,7 +240,7 @@ def write_graphml(graph: CorrespondenceGraph, path: str | PathLike[str]) -> None
     """
     import networkx as nx
 
-    nx.write_graphml(to_networkx(graph), str(path))
+    nx.write_graphml(to_networkx(graph, omit_missing=True), str(path))
 
 
 def read_graphml(path: str | PathLike[str]) -> CorrespondenceGraph:

@@ -45,7 +45,7 @@ import numpy as np
 
 from .graph import CorrespondenceGraph, GraphValidationError
 
-__all__ = ["save_graph", "load_graph", "save_native", "load_native", "check_npz_sizes", "NativeFile", "FORMAT", "VERSION", "MAX_ARRAY_BYTES"]
+__all__ = ["save_graph", "load_graph", "save_native", "load_native", "check_npz_sizes", "bomb_limit", "NativeFile", "FORMAT", "VERSION", "MAX_ARRAY_BYTES", "BOMB_RATIO", "BOMB_MIN_BYTES"]
 
 FORMAT = "graphseg-graph"
 VERSION = 1
@@ -54,6 +54,43 @@ VERSION = 1
 MAX_ARRAY_BYTES = 16 * 2**30
 #: Deflate cannot compress better than about 1032:1.
 _MAX_RATIO = 1100
+#: An entry that packs more than this many bytes per compressed byte (only runs of one
+#: value do: 4 GiB of zeros deflate 1028:1, real label images 100-500:1) ...
+BOMB_RATIO = 1000
+#: ... and is larger than this (or than 8 bytes per pixel of the pixel budget, one int32
+#: label image and more) is refused as a zip bomb before it is decompressed.
+BOMB_MIN_BYTES = 64 * 2**20
+
+
+def bomb_limit() -> int:
+    """Bytes above which an entry compressed at :data:`BOMB_RATIO`:1 or more is refused.
+
+    ``max(BOMB_MIN_BYTES, 8 * pixel budget)``: a real output holds no near-constant
+    array larger than one int32 label image of the largest allowed view
+    (``$GRAPHSEG_MAX_PIXELS``, :func:`graphseg.io.images.max_pixels`).
+
+    Examples
+    --------
+    >>> bomb_limit() >= BOMB_MIN_BYTES
+    True
+    """
+    from ..io.images import max_pixels
+
+    return max(BOMB_MIN_BYTES, 8 * max_pixels())
+
+
+def _size(n: int) -> str:
+    """``n`` bytes in the largest binary unit that keeps one digit before the point.
+
+    Examples
+    --------
+    >>> _size(3 * 2**30), _size(1536), _size(12)
+    ('3.0 GiB', '1.5 KiB', '12 B')
+    """
+    for unit, k in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
+        if n >= k:
+            return f"{n / k:.1f} {unit}"
+    return f"{n} B"
 
 
 def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
@@ -62,7 +99,9 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
     Every declared size is checked against the member's size in the zip, the
     compressed size (deflate's maximum ratio) and ``limit`` (default
     :data:`MAX_ARRAY_BYTES` or ``$GRAPHSEG_MAX_ARRAY_BYTES``) before anything
-    is allocated.
+    is allocated. An entry larger than :func:`bomb_limit` that is compressed
+    :data:`BOMB_RATIO`:1 or better (a zip bomb: gigabytes of zeros in a few
+    megabytes) is refused before it is decompressed.
 
     Returns
     -------
@@ -85,6 +124,7 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
     import zipfile
 
     cap = int(limit if limit is not None else os.environ.get("GRAPHSEG_MAX_ARRAY_BYTES", MAX_ARRAY_BYTES))
+    bomb = bomb_limit()
     out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
     total = 0
     try:
@@ -93,6 +133,12 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
                 name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
                 if info.file_size > max(info.compress_size, 1) * _MAX_RATIO + 2**20:
                     raise GraphValidationError(f"{path}: {name}: declared size {info.file_size} bytes is impossible for {info.compress_size} compressed bytes (tampered file)")
+                if info.file_size > bomb and info.file_size >= max(info.compress_size, 1) * BOMB_RATIO:
+                    raise GraphValidationError(
+                        f"{path}: {name}: {_size(info.file_size)} compressed into {_size(info.compress_size)} "
+                        f"({info.file_size // max(info.compress_size, 1)}:1); refused as a zip bomb before decompressing "
+                        f"(an entry over {_size(bomb)} must compress less than {BOMB_RATIO}:1; raise GRAPHSEG_MAX_PIXELS for larger images)"
+                    )
                 with zf.open(info) as f:
                     version = np.lib.format.read_magic(f)
                     if version == (1, 0):

@@ -148,9 +148,14 @@ def _imread(path: str | os.PathLike[str], flags: int, field: str) -> np.ndarray:
             field=field,
         )
     data = np.fromfile(str(p), dtype=np.uint8)
-    img = cv2.imdecode(data, flags) if data.size else None
+    img = None
+    if data.size:
+        from ..quiet import native_silence
+
+        with native_silence(fds=(2,)):  # libpng prints "libpng error: ..." on fd 2 for a truncated file
+            img = cv2.imdecode(data, flags)
     if img is None:
-        raise SceneError("cannot decode image (corrupt or not an image)", where=str(p), field=field)
+        raise SceneError("cannot decode image (corrupt, truncated or not an image)", where=str(p), field=field)
     return img
 
 
@@ -258,7 +263,22 @@ def require_folder(path: str | os.PathLike[str]) -> Path:
 
 
 def check_size(img: np.ndarray, rgb: np.ndarray, where: str | os.PathLike[str], field: str) -> np.ndarray:
-    """Return ``img`` if it has the image size of ``rgb``, else raise naming both sizes."""
+    """Return ``img`` if it has the image size of ``rgb``, else raise naming both sizes.
+
+    Sizes are written ``WIDTHxHEIGHT``, like the rest of the command line.
+
+    Examples
+    --------
+    >>> check_size(np.zeros((48, 64)), np.zeros((480, 640, 3)), "d/0.png", "views[0].depth")
+    Traceback (most recent call last):
+    ...
+    graphseg.scene.SceneError: d/0.png: views[0].depth: the depth image is 64x48 but the rgb image is 640x480; resize it to 640x480 or remove the view from the scene
+    """
     if img.shape[:2] != rgb.shape[:2]:
-        raise SceneError(f"{field.split('.')[-1]} is {list(img.shape[:2])} but rgb is {list(rgb.shape[:2])}", where=str(where), field=field)
+        (h, w), (rh, rw) = img.shape[:2], rgb.shape[:2]
+        raise SceneError(
+            f"the {field.split('.')[-1]} image is {w}x{h} but the rgb image is {rw}x{rh}; resize it to {rw}x{rh} or remove the view from the scene",
+            where=str(where),
+            field=field,
+        )
     return img

@@ -105,7 +105,12 @@ def _rgb_only(root: Path, views: Any, step: Any, num_views: Any) -> Scene:
 def _check_sizes(views: Sequence[View], root: Path) -> None:
     for v in views:
         if v.shape != views[0].shape:
-            raise SceneError(f"all images must have one size ({list(views[0].shape)}; {v.name} is {list(v.shape)})", where=str(root), field="rgb")
+            (h0, w0), (h, w) = views[0].shape, v.shape
+            raise SceneError(
+                f"all images must have one size: {views[0].name} is {w0}x{h0} but {v.name} is {w}x{h}; resize {v.name} to {w0}x{h0} or remove it",
+                where=str(root),
+                field="rgb",
+            )
 
 
 def read_scene_folder(
@@ -293,6 +298,7 @@ def _read_points_entry(root: Path, vd: dict[str, Any], view: View, version: int,
     path = confine(root, rel, where=where, field=f"{field}.points")
     pm = read_point_map_file(path, view.shape)
     if pm.source_shape != view.shape:
-        raise SceneError(f"expected [{view.shape[0]}, {view.shape[1]}, 3] like rgb (got {list(pm.source_shape) + [3]})", where=str(path), field="points")
+        (h, w), (ph, pw) = view.shape, pm.source_shape
+        raise SceneError(f"the point map is {pw}x{ph} but the rgb image is {w}x{h}; compute it at {w}x{h} or remove the view from the scene", where=str(path), field="points")
     return view.replace(points=pm.points, confidence=pm.confidence)
 

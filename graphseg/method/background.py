@@ -3,8 +3,12 @@
 The table plane is fitted by RANSAC on the views' world point maps (no model
 needed). A pixel is background when its point lies within ``plane_tolerance``
 of the plane, on the far side of the plane from the cameras (floor, table
-legs), or farther from its camera than ``max_distance``. Background is one
-class; it never becomes an object.
+legs), farther from its camera than ``max_distance``, or (``beyond_table``)
+when its foot on the plane lies outside the table's outline: the convex hull of
+the largest connected patch of plane points, grown by ``table_margin`` of its
+size. The outline is measured in units of the table itself, so it holds
+whatever the scale of the points (metric or not). Background is one class; it
+never becomes an object.
 
 Examples
 --------
@@ -28,7 +32,7 @@ import numpy as np
 from ..config import BackgroundConfig
 from ..geometry import fit_plane_ransac, point_normals
 
-__all__ = ["background_masks", "fit_table_plane", "BackgroundInfo"]
+__all__ = ["background_masks", "fit_table_plane", "table_outline", "TableOutline", "BackgroundInfo"]
 
 
 @dataclass
@@ -38,6 +42,130 @@ class BackgroundInfo:
     plane: tuple[float, float, float, float] | None = None
     max_distance: float | None = None
     fraction: list[float] = field(default_factory=list)
+    outline: TableOutline | None = None
+    beyond_table: list[float] = field(default_factory=list)
+
+
+def _plane_basis(normal: np.ndarray) -> np.ndarray:
+    """Two orthonormal vectors ``[2, 3]`` spanning the plane with unit ``normal``."""
+    n = np.asarray(normal, np.float64)
+    a = np.eye(3)[int(np.argmin(np.abs(n)))]
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)])
+
+
+@dataclass
+class TableOutline:
+    """The table's outline on its plane: a filled convex polygon on a grid.
+
+    Attributes
+    ----------
+    basis : float64 ``[2, 3]``
+        Plane coordinates of a point ``x`` are ``basis @ x``.
+    origin : float64 ``[2]``
+        Plane coordinates of the grid's corner.
+    cell : float
+        Grid cell size (in the points' units).
+    inside : bool ``[Gy, Gx]``
+        Cells inside the grown outline.
+    """
+
+    basis: np.ndarray
+    origin: np.ndarray
+    cell: float
+    inside: np.ndarray
+
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Whether the foot on the plane of each point ``[P, 3]`` lies inside the outline (bool ``[P]``)."""
+        uv = (np.asarray(points, np.float64) @ self.basis.T - self.origin) / self.cell
+        ij = np.floor(uv).astype(np.int64)
+        gy, gx = self.inside.shape
+        ok = (ij[:, 0] >= 0) & (ij[:, 0] < gx) & (ij[:, 1] >= 0) & (ij[:, 1] < gy)
+        out = np.zeros(len(ij), bool)
+        out[ok] = self.inside[ij[ok, 1], ij[ok, 0]]
+        return out
+
+
+def table_outline(plane_points: np.ndarray, normal: np.ndarray, *, margin: float = 0.05, grid: int | None = None) -> TableOutline | None:
+    """The outline of the table from points on its plane.
+
+    The points' plane coordinates are binned on a ``grid x grid`` raster over
+    their 0.5-99.5 percentile range (by default ``sqrt(P / 8)`` cells a side,
+    clipped to 8..128, so that a cell holds about 8 points); the largest 8-connected patch of occupied
+    cells (after a 3x3 closing, which bridges the gaps of sparse points) is the
+    table, and its convex hull, grown by ``margin`` of the patch's larger side,
+    is the outline. Other patches (a floor or a shelf at the same height) stay
+    outside. Everything is in units of the table, so the rule does not depend
+    on the scale of the points.
+
+    Parameters
+    ----------
+    plane_points : float ``[P, 3]``
+        Points on the table plane (finite).
+    normal : float ``[3]``
+        The plane's unit normal.
+    margin : float, keyword-only
+        Growth as a fraction of the outline's size.
+    grid : int, optional, keyword-only
+        Raster resolution (cells along the larger side).
+
+    Returns
+    -------
+    TableOutline or None
+        None with fewer than 3 points or a degenerate (collinear) patch.
+
+    Notes
+    -----
+    O(P + grid^2).
+
+    Examples
+    --------
+    >>> g = np.random.default_rng(0).uniform(-1, 1, (4000, 2))
+    >>> table = np.c_[g, np.zeros(4000)]
+    >>> out = table_outline(table, np.array([0, 0, 1.0]))
+    >>> out.contains(np.array([[0.0, 0.0, 0.3], [0.98, -0.98, 0.1], [1.6, 0.0, 0.2]])).tolist()
+    [True, True, False]
+    """
+    import cv2
+    from scipy import ndimage
+
+    pts = np.asarray(plane_points, np.float64).reshape(-1, 3)
+    if len(pts) < 3:
+        return None
+    basis = _plane_basis(normal)
+    uv = pts @ basis.T
+    lo, hi = np.percentile(uv, 0.5, axis=0), np.percentile(uv, 99.5, axis=0)
+    side = float(np.max(hi - lo))
+    if not side > 0:
+        return None
+    if grid is None:
+        grid = int(np.clip(np.sqrt(len(pts) / 8), 8, 128))
+    cell = side / grid
+    pad = int(np.ceil(margin * grid)) + 2
+    origin = lo - pad * cell
+    shape = (int(np.ceil((hi[1] - lo[1]) / cell)) + 1 + 2 * pad, int(np.ceil((hi[0] - lo[0]) / cell)) + 1 + 2 * pad)
+    ij = np.floor((uv - origin) / cell).astype(np.int64)
+    ok = (ij[:, 0] >= 0) & (ij[:, 0] < shape[1]) & (ij[:, 1] >= 0) & (ij[:, 1] < shape[0])
+    occ = np.zeros(shape, bool)
+    occ[ij[ok, 1], ij[ok, 0]] = True
+    occ = ndimage.binary_closing(occ, structure=np.ones((3, 3), bool))
+    comp, n = ndimage.label(occ, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return None
+    sizes = np.bincount(comp.ravel())[1:]
+    ys, xs = np.nonzero(comp == int(np.argmax(sizes)) + 1)
+    cells = np.stack([xs, ys], 1).astype(np.int32)
+    span = int(max(np.ptp(xs), np.ptp(ys))) + 1
+    if min(np.ptp(xs), np.ptp(ys)) == 0:
+        return None
+    hull = cv2.convexHull(cells)
+    filled = np.zeros(shape, np.uint8)
+    cv2.fillConvexPoly(filled, hull, 1)
+    grow = int(round(margin * span))
+    if grow > 0:
+        filled = np.asarray(cv2.dilate(filled, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * grow + 1, 2 * grow + 1))))
+    return TableOutline(basis, origin, cell, filled.astype(bool))
 
 
 def _subsample(idx: list[np.ndarray], counts: list[int], size: int, gen: np.random.Generator) -> list[np.ndarray]:
@@ -165,12 +293,22 @@ def background_masks(
             max_dist = float(cfg.max_distance)
         info.max_distance = max_dist
     cos_max = None if cfg.plane_normal_angle is None else float(np.cos(cfg.plane_normal_angle))
+    outline = None
+    if plane is not None and cfg.beyond_table:
+        sample = np.concatenate([f[i] for f, i in zip(flat, pool)]).astype(np.float64)
+        on = np.abs(sample @ plane[0] + plane[1]) <= cfg.plane_tolerance
+        outline = table_outline(sample[on], plane[0], margin=cfg.table_margin)
+        info.outline = outline
     for k, (f, i) in enumerate(zip(flat, idx)):
         pv = f[i].astype(np.float64)
         b = np.zeros(len(pv), bool)
         if plane is not None:
             sd = pv @ plane[0] + plane[1]
             band = np.abs(sd) <= cfg.plane_tolerance
+            if outline is not None:
+                beyond = ~outline.contains(pv)
+                info.beyond_table.append(float(beyond.mean()) if beyond.size else 0.0)
+                b |= beyond
             if cos_max is not None and band.any():
                 nrm = point_normals(np.asarray(points[k], np.float32), cfg.normal_step).reshape(-1, 3)[i[band]]
                 cos = np.abs(nrm @ plane[0].astype(np.float32))

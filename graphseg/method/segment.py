@@ -42,7 +42,7 @@ from ..scene import Matches, Scene, SceneError
 from .background import background_masks
 from .masks import compose_masks, paint_masks
 
-__all__ = ["segment", "MasksLike"]
+__all__ = ["segment", "object_support", "apply_min_support", "MasksLike"]
 
 MasksLike = Sequence[Any]
 
@@ -99,6 +99,97 @@ def _finite_points(points: np.ndarray) -> np.ndarray:
     p = p.astype(np.float32, copy=True)
     p[bad] = np.nan
     return p
+
+
+def object_support(labels: Sequence[np.ndarray], points: Sequence[np.ndarray], num_objects: int) -> tuple[np.ndarray, np.ndarray]:
+    """Views and valid 3D points of every object in the label images.
+
+    Parameters
+    ----------
+    labels : list of int ``[H, W]``
+        Per view; 0 = none, ``1..num_objects`` objects.
+    points : list of float ``[H, W, 3]``
+        World points; a pixel counts when all three coordinates are finite.
+    num_objects : int
+
+    Returns
+    -------
+    views, points : int64 ``[num_objects]``
+        ``views[k - 1]``: the views in which object ``k`` has a valid pixel;
+        ``points[k - 1]``: its valid pixels over all views.
+
+    Notes
+    -----
+    O(total pixels).
+
+    Examples
+    --------
+    >>> lab = [np.array([[1, 1, 2]]), np.array([[0, 1, 0]])]
+    >>> pts = [np.zeros((1, 3, 3)), np.zeros((1, 3, 3))]
+    >>> pts[0][0, 1] = np.nan                       # no 3D point behind one pixel
+    >>> [a.tolist() for a in object_support(lab, pts, 2)]
+    [[2, 1], [2, 1]]
+    """
+    views = np.zeros(num_objects, np.int64)
+    count = np.zeros(num_objects, np.int64)
+    for lab, p in zip(labels, points):
+        pa = np.asarray(p)
+        valid = np.isfinite(pa[..., 0]) & np.isfinite(pa[..., 1]) & np.isfinite(pa[..., 2])
+        c = np.bincount(np.asarray(lab, np.int64)[valid], minlength=num_objects + 1)[1 : num_objects + 1]
+        count += c
+        views += c > 0
+    return views, count
+
+
+def apply_min_support(
+    obj: np.ndarray, labels: Sequence[np.ndarray], points: Sequence[np.ndarray], min_views: int, min_points: int
+) -> tuple[np.ndarray, list[np.ndarray], dict[str, Any]]:
+    """Objects below the minimum support become background; the rest are renumbered ``1..K``.
+
+    Parameters
+    ----------
+    obj : int64 ``[M]``
+        Object id (``1..K``) of every mask.
+    labels : list of int ``[H, W]``
+        The painted object ids per view.
+    points : list of float ``[H, W, 3]``
+    min_views, min_points : int
+        Views and valid points an object needs (see
+        :class:`graphseg.config.ObjectConfig`); ``min_views`` is capped at the
+        number of views.
+
+    Returns
+    -------
+    obj : int64 ``[M]``
+        New ids, 0 for the masks of dropped objects (order of the kept ids unchanged).
+    labels : list of int32 ``[H, W]``
+        New label images (new arrays; the inputs are not modified).
+    support : dict
+        ``min_views`` (as applied), ``min_points``, ``dropped`` (how many) and
+        ``dropped_objects``: ``{"views", "points"}`` per dropped object.
+
+    Examples
+    --------
+    >>> lab = [np.array([[1, 1, 2, 3]]), np.array([[1, 0, 0, 3]])]
+    >>> pts = [np.zeros((1, 4, 3)), np.zeros((1, 4, 3))]
+    >>> new, out, info = apply_min_support(np.array([1, 2, 3, 1, 3]), lab, pts, 2, 0)
+    >>> new.tolist(), out[0].tolist(), info["dropped"]
+    ([1, 0, 2, 1, 2], [[1, 1, 0, 2]], 1)
+    """
+    num = int(obj.max()) if obj.size else 0
+    need_views = min(int(min_views), len(labels))
+    views, count = object_support(labels, points, num)
+    keep = (views >= need_views) & (count >= int(min_points))
+    remap = np.zeros(num + 1, np.int64)
+    remap[1:][keep] = np.arange(1, int(keep.sum()) + 1)
+    info: dict[str, Any] = {
+        "min_views": need_views,
+        "min_points": int(min_points),
+        "dropped": int((~keep).sum()),
+        "dropped_objects": [{"views": int(v), "points": int(c)} for v, c in zip(views[~keep], count[~keep])],
+    }
+    new_labels = [remap[np.asarray(lab, np.int64)].astype(np.int32) for lab in labels]
+    return remap[np.asarray(obj, np.int64)], new_labels, info
 
 
 def _degenerate_warnings(scene: Scene, graph: CorrespondenceGraph, num_objects: int) -> list[str]:
@@ -247,12 +338,14 @@ def segment(
     t = time.perf_counter()
     mem = current.members
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
+    out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
+    min_points = int(np.ceil(cfg.objects.min_point_fraction * scene.views[0].shape[0] * scene.views[0].shape[1])) if scene.num_views else 0
+    obj, out_labels, support = apply_min_support(obj, out_labels, points, cfg.objects.min_views, min_points)
     num_objects = int(obj.max()) if obj.size else 0
-    for g in stage_graphs:  # final object id of every node of every stage graph
+    for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
         col = np.zeros(g.num_nodes, np.int64)
         col[g.members["node"]] = obj
         g.node_attr["object"] = col
-    out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
     clouds = node_point_sets(
         object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in scene.views]
@@ -276,6 +369,7 @@ def segment(
             "timings": timings,
             "num_matches": int(sum(len(m) for m in matches.values())),
             "pairs": [list(p) for p in matches],
+            "support": support,
             "warnings": _degenerate_warnings(scene, graph, num_objects),
         },
     )

@@ -159,3 +159,19 @@ def test_ctrl_c_keeps_finished_outputs_and_resumes(synth_dir, tmp_path):
     s = run_batch([str(synth_dir / "*")], out, num_views=[2, 3, 4])
     assert s.skipped >= len(finished) and s.ok == 6 and s.failed == 0
     assert os.path.isfile(out / "aggregate.md")
+
+
+def test_a_changed_task_output_is_kept_and_not_counted(synth_dir, tmp_path):
+    scenes = tmp_path / "scenes"
+    shutil.copytree(synth_dir / "a", scenes / "a")
+    out = tmp_path / "out"
+    run_batch([str(scenes / "a")], out, num_views=[2])
+    (run_dir,) = out.glob("runs/*/*/views-2")
+    (run_dir / "notes.txt").write_text("my notes")
+    (scenes / "a" / "note.txt").write_text("changed")  # a new scene digest: the task runs again
+    s = run_batch([str(scenes / "a")], out, num_views=[2])
+    backup = run_dir.with_name("views-2.graphseg-backup-1")
+    assert s.ok == 1 and (backup / "notes.txt").read_text() == "my notes" and not (run_dir / "notes.txt").exists()
+    assert any("kept your existing" in w and "views-2.graphseg-backup-1" in w for w in s.records[0]["warnings"])
+    r = rebuild_report(out)
+    assert (r.tasks, r.ok) == (1, 1)  # the backup is no task of the batch

@@ -47,7 +47,7 @@ def test_construction_from_options_or_keywords():
         Ring(Ring.Options(), step=2)
     with pytest.raises(TypeError, match="expected Options"):
         Ring(PixelMatch.Options())
-    with pytest.raises(CriterionOptionsError, match="ring: unknown option 'stpe'; valid options: step"):
+    with pytest.raises(CriterionOptionsError, match="ring: unknown option 'stpe'; valid options: step; did you mean 'step'\\?$"):
         Ring(stpe=2)
     with pytest.raises(CriterionOptionsError, match="option 'step'"):
         build_criterion(Ring, {"step": 0})
@@ -93,3 +93,55 @@ def test_legacy_callable_without_options_takes_keywords():
 
     assert build_criterion(Legacy, {"k": 4}).k == 4
     assert criterion_info(Legacy).dimension == "any"
+
+
+def test_misspelt_options_name_the_closest():
+    from graphseg.graphs.criterion import validate_options
+
+    with pytest.raises(CriterionOptionsError) as err:
+        validate_options(PixelMatch.Options, {"percentil": 70}, label="pixel_match")
+    assert str(err.value).startswith("pixel_match: unknown option 'percentil'; valid options: ") and str(err.value).endswith("; did you mean 'percentile'?")
+    with pytest.raises(CriterionOptionsError) as err:
+        validate_options(Ring.Options, {"zzz": 1}, label="ring")
+    assert str(err.value) == "ring: unknown option 'zzz'; valid options: step"  # no close key, no hint
+
+
+class Loose(Criterion):
+    """A plugin whose own model allows infinities."""
+
+    name = "loose"
+
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid", allow_inf_nan=True)
+        limit: float = 1.0
+        scales: list[float] = [1.0]
+
+    def __call__(self, graph, evidence):  # pragma: no cover - never called
+        raise AssertionError
+
+
+@pytest.mark.parametrize(
+    "options,message",
+    [
+        ({"limit": float("inf")}, "loose: option 'limit': expected a finite number (got inf)"),
+        ({"limit": float("-inf")}, "loose: option 'limit': expected a finite number (got -inf)"),
+        ({"scales": [1.0, float("nan")]}, "loose: option 'scales.1': expected a finite number (got nan)"),
+    ],
+)
+def test_non_finite_options_are_refused_even_if_the_plugin_allows_them(options, message):
+    with pytest.raises(CriterionOptionsError) as err:
+        build_criterion(Loose, options)
+    assert str(err.value) == message
+    assert build_criterion(Loose, {"limit": 1e30}).options.limit == 1e30
+
+
+def test_builtin_defaults_are_finite():
+    from graphseg.graphs.criterion import non_finite
+    from graphseg.graphs.registry import contractors, edge_adders
+
+    for registry in (edge_adders, contractors):
+        for name in registry.names():
+            info = criterion_info(registry.get(name), name)
+            if info.Options is not None:
+                assert non_finite(info.Options()) is None, name
+

@@ -181,3 +181,58 @@ def test_to_pyg_without_torch_names_the_extra(toy_graph, monkeypatch):
     monkeypatch.delitem(__import__("sys").modules, "torch", raising=False)
     with pytest.raises(ImportError, match=r'pip install "graphseg\[torch\]"'):
         to_pyg(toy_graph)
+
+
+def test_graphml_edges_lack_the_attributes_they_have_no_value_for(tmp_path):
+    """Stage 1's Chamfer edges have no pixel count, ratio or multiplicity: no -1 / nan placeholders in the file."""
+    import xml.etree.ElementTree as ET
+
+    from graphseg.pipeline import run
+    from graphseg.testing.scenes import TWO_BOXES, box_scene
+
+    result = run(box_scene(TWO_BOXES))
+    assert len(result.graphs) == 2
+    g1 = result.graphs[1]
+    assert g1.num_edges and (g1.edge_attr["count"] == -1).all() and np.isnan(g1.edge_attr["ratio"]).all()  # in memory: placeholders
+    for s, g in enumerate(result.graphs):
+        path = tmp_path / f"stage{s}.graphml"
+        write_graphml(g, path)
+        ns = {"g": "http://graphml.graphdrawing.org/xmlns"}
+        root = ET.parse(path).getroot()
+        names = {k.get("id"): k.get("attr.name") for k in root.findall("g:key", ns)}
+        values = [(names[d.get("key")], d.text) for e in root.iter("{http://graphml.graphdrawing.org/xmlns}edge") for d in e.findall("g:data", ns)]
+        placeholders = [(k, v) for k, v in values if k in ("count", "ratio", "multiplicity") and v is not None and v.strip().lower() in ("-1", "nan")]
+        assert placeholders == [], s
+        assert all(v.strip().lower() != "nan" for _, v in values if v is not None)
+        nxg = nx.read_graphml(path)  # plain networkx reads it; those edges simply lack the keys
+        assert nxg.number_of_edges() == g.num_edges
+        if s == 1:
+            assert all("count" not in d and "ratio" not in d and "multiplicity" not in d and "weight" in d for *_, d in nxg.edges(data=True))
+        else:
+            assert all("count" in d and d["count"] > 0 for *_, d in nxg.edges(data=True))
+        back = read_graphml(path)  # the placeholders come back in memory: lossless (str columns may get a narrower width)
+        assert np.array_equal(back.edge_index, g.edge_index) and set(back.edge_attr) == set(g.edge_attr)
+        for k, col in g.edge_attr.items():
+            if col.dtype.kind == "U":
+                assert back.edge_attr[k].tolist() == col.tolist(), k
+            else:
+                assert back.edge_attr[k].dtype == col.dtype, k
+                np.testing.assert_array_equal(back.edge_attr[k], col)  # NaN-aware, exact
+
+
+def test_graphml_omits_missing_values_per_element_of_vector_columns(tmp_path):
+    g = CorrespondenceGraph(
+        3,
+        [[0, 1, 0], [1, 2, 2]],
+        {"weight": np.array([0.5, np.nan, 0.25]), "count": np.array([-1, 4, 7]), "box": np.array([[1.0, np.nan], [np.nan, np.nan], [2.0, 3.0]]),
+         "flag": np.array([False, True, False]), "criterion": np.array(["a", "b", ""])},
+    )
+    write_graphml(g, tmp_path / "g.graphml")
+    edges = sorted(nx.read_graphml(tmp_path / "g.graphml", force_multigraph=True).edges(keys=True, data=True), key=lambda t: int(t[2]))
+    assert [sorted(k for k in d if k != "graphseg_src") for *_, d in edges] == [
+        ["box_0", "criterion", "flag", "weight"],
+        ["count", "criterion", "flag"],
+        ["box_0", "box_1", "count", "criterion", "flag", "weight"],
+    ]
+    assert_same(g, read_graphml(tmp_path / "g.graphml"))
+    assert "count" in to_networkx(g).edges[0, 1, 0]  # the networkx view keeps them unless asked

@@ -62,6 +62,9 @@ def test_plain_image_folder(tmp_path):
     (tmp_path / "notes.txt").write_text("x")
     s = read_scene_folder(tmp_path)
     assert [v.name for v in s.views] == ["img0", "img1", "img2"] and s.views[0].depth is None
+    write_rgb(tmp_path / "img3.png", np.zeros((6, 9, 3), np.uint8))
+    with pytest.raises(SceneError, match="img0 is 9x8 but img3 is 9x6; resize img3 to 9x8 or remove it"):
+        read_scene_folder(tmp_path)
 
 
 # --------------------------------------------------------------- validation: every field
@@ -115,7 +118,7 @@ def test_invalid_json_corrupt_png_sizes_and_dtypes(scene_dir):
         read_scene_folder(scene_dir)
     write_png(scene_dir / "rgb" / "000.png", np.zeros((12, 16, 3), np.uint8))
     write_png(scene_dir / "depth" / "000.png", np.zeros((5, 5), np.uint16))
-    with pytest.raises(SceneError, match=r"views\[0\].depth: depth is \[5, 5\] but rgb is \[12, 16\]"):
+    with pytest.raises(SceneError, match=r"views\[0\].depth: the depth image is 5x5 but the rgb image is 16x12; resize it to 16x12"):
         read_scene_folder(scene_dir)
     write_png(scene_dir / "depth" / "000.png", np.zeros((12, 16), np.uint8))
     with pytest.raises(SceneError, match="expected a 16-bit PNG"):
