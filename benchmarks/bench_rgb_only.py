@@ -1,33 +1,64 @@
-"""RGB-only input: the ``sfm`` lifter (structure from motion + stereo) against the same scenes given depth.
+"""RGB-only input (photos only) against the same scenes given their true depth.
 
 Scenes
-    * synthetic pybullet scenes, 640x480, 5 objects: narrow arcs (a wrist-camera
-      sweep) of 35 degrees / 5 views and 70 degrees / 8 views (seeds 200 and 201),
-      50 degrees / 3, 5, 10 views, and full 360-degree rings of 3, 5 and 10 views
-      (seed 200).
-      RGB-only = depth, poses *and* intrinsics removed (``graphseg.sim.strip.rgb_only``).
-    * YCB-Video 0001 and 0002 (10 views over the 20 frames, ``../shared/data/ycbv``,
-      skipped if absent): depth hidden (intrinsics and poses kept, so the scale is
-      metric) and fully RGB-only (intrinsics and poses hidden too).
+    The 30 fixed pybullet scenes of :mod:`graphseg.sim.families` (640x480): two
+    object sets (pybullet's bundled objects; procedural boxes, cylinders and spheres
+    with plain, striped, noise and photo-like textures; and both mixed), 3-9
+    objects, spread, touching and stacked layouts, seven table tops, the default
+    and varied lighting (direction, tint, coefficients, shadows), arcs of 20-90
+    degrees with 3, 5, 8 and 10 views and 10-view rings of 120-360 degrees. The
+    split into a **tune** half and a **check** half is fixed in
+    :mod:`graphseg.sim.families` (seed parity; each half holds one scene of every
+    pair). Settings are chosen on the tune half only; both halves are reported.
+    ``--ycb`` adds YCB-Video 0001 and 0002 (10 views over the 20 frames,
+    ``../shared/data/ycbv``) as an extra group outside the halves: depth hidden
+    (intrinsics and poses kept, metric scale) and fully RGB-only.
 
-Each scene is run twice with one configuration (``Config.preset("rgbd")``, the
-CLI default; no per-scene tuning): given depth (lifter ``rgbd``) and RGB-only
-(lifter ``sfm``, chosen automatically). Every run is a fresh subprocess, so
-its peak resident memory is its own.
+Runs
+    Each scene is run twice with one configuration for all scenes (no per-scene
+    tuning), each run in a fresh subprocess so that its peak resident memory is
+    its own: (a) RGB-only = depth, poses *and* intrinsics removed
+    (:func:`graphseg.sim.families.rgb_only_scene`), lifter ``sfm`` chosen
+    automatically, with ``--config`` over ``Config.preset("rgbd")`` (the CLI
+    default); (b) the same scene with its true depth (lifter ``rgbd``,
+    ``--depth-config`` over the same preset). A failed RGB-only run (e.g. SfM
+    registers too few views) counts as IoU, F1, precision and PQ 0 and is
+    reported with its one-line error.
 
-Measures
-    registration rate; rotation error (degrees, median over views) and camera
-    centre error (median, as a fraction of the median camera-to-scene distance)
-    after the best similarity between SfM and true camera centres; depth error
-    (median relative error of the lifted depth, scaled by that similarity)
-    and coverage (pixels with a lifted point / pixels with true depth; ``dense``
-    = stereo alone); segmentation quality with ``graphseg.metrics.evaluate``
-    computed on the *true* point maps for both runs (every pixel with true
-    depth counts, so missing RGB-only points cannot flatter the score); seconds
-    per stage (wall) and the CPU seconds of the process (``time.process_time``,
-    all threads: the machine was shared with other jobs); peak RSS.
+Measures (per scene)
+    registered views / total (the ``sfm`` lifter keeps the views it registers when
+    at least 2 do; a dropped view is labelled all background for the evaluation);
+    rotation error (degrees, median over views) and camera centre error (median,
+    as a fraction of the median camera-to-scene distance) after the best
+    similarity between estimated and true camera centres (ill-conditioned for 3-4
+    views on a narrow arc, whose centres are nearly collinear), and the relative
+    rotation error (median over view pairs; needs no alignment);
+    depth error (median and 90th percentile of the relative error of the lifted
+    depth, scaled by that similarity); lifted fraction (pixels with a lifted point
+    / pixels with true depth) and ``dense`` (the part from stereo alone); IoU, F1,
+    precision, PQ and predicted / true objects (:func:`graphseg.metrics.evaluate`
+    on the *true* point maps for both runs: every pixel with true depth counts,
+    so missing RGB-only points cannot flatter the score); seconds per stage (wall),
+    total seconds, CPU seconds of the process (all threads), peak RSS.
 
-Usage: python benchmarks/bench_rgb_only.py [--quick] [--json PATH]
+Summary
+    Per half (tune, check, all) and per group (arcs, rings, 10-view rings, each
+    object set, each view count, touching/stacked vs spread): means of every
+    measure, the gap (true-depth IoU minus RGB-only IoU), and the acceptance checks
+    (check half: RGB-only mean IoU >= 0.85 and gap <= 0.05; 10-view rings of
+    120-360 degrees: mean IoU >= 0.75; 8-view 640x480 scenes: RGB-only total
+    <= 60 s and peak RSS <= 2 GB each). The tune half's values of the same checks
+    are reported beside them.
+
+Writes ``benchmarks/results/rgb_only.json`` and ``rgb_only.md`` for a full run
+(``--half all``, no ``--scenes``, no ``--quick``); a partial run writes
+``rgb_only.partial.json`` / ``.md`` unless ``--json`` is given, so it never
+replaces the full result. ``--merge`` instead reruns the selected scenes and
+merges their rows into the existing JSON (``--json``), recomputing the summary.
+The JSON records the graphseg git commit and both configurations.
+
+Usage: python benchmarks/bench_rgb_only.py [--half tune|check|all] [--scenes NAME,...]
+    [--config FILE] [--depth-config FILE] [--json PATH] [--quick] [--ycb] [--merge]
 """
 
 from __future__ import annotations
@@ -35,44 +66,46 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import pickle
+import re
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
 from _common import print_table, write_json  # noqa: E402
 
-YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
 ROOT = Path(__file__).resolve().parents[1]
+YCBV = ROOT.parent / "shared" / "data" / "ycbv"
+RESULTS = ROOT / "benchmarks" / "results"
 # subprocesses import graphseg from this checkout
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *filter(None, [os.environ.get("PYTHONPATH")])])}
-SEEDS = (200, 201)
-SYNTH = [
-    ("arc35-5", 35.0, 5),
-    ("arc70-8", 70.0, 8),
-    ("arc50-3", 50.0, 3),
-    ("arc50-5", 50.0, 5),
-    ("arc50-10", 50.0, 10),
-    ("ring-3", 360.0, 3),
-    ("ring-5", 360.0, 5),
-    ("ring-10", 360.0, 10),
-]
+#: The scenes of ``--quick``: the two cheapest pairs (3 views), one scene of each in either half.
+QUICK = ("arc20-3v-bundled-s2000", "arc30-3v-bundled-s2001", "arc40-3v-procedural-s2002", "arc25-3v-procedural-s2003")
+#: Seconds one subprocess may run before it is stopped (reported as an error).
+CHILD_TIMEOUT = 1800
+#: Acceptance targets (issue 20).
+TARGET_IOU, TARGET_GAP, TARGET_RING_IOU, TARGET_SECONDS_8, TARGET_RSS_MB_8 = 0.85, 0.05, 0.75, 60.0, 2048.0
 
 
-def _scene(spec: dict):
-    from graphseg.io import load_scene
-    from graphseg.sim.pybullet_scenes import synthesize
+# ---------------------------------------------------------------------------- one run (child)
 
-    if spec["kind"] == "synth":
-        return synthesize(seed=spec["seed"], objects=5, views=spec["views"], size=(640, 480), arc_deg=spec["arc"])
-    return load_scene(YCBV / spec["video"], num_views=10)
+
+def _config(path: str | None):
+    from graphseg.config import Config
+
+    base = Config.preset("rgbd")
+    return Config.load(path, base=base) if path else base
 
 
 def _pose_errors(est, ref):
+    """Scale, median rotation error (deg) and median centre error after the best similarity of camera centres."""
     from graphseg.backends.align import umeyama
 
     s, R, t = umeyama(np.array([T[:3, 3] for T in est]), np.array([T[:3, 3] for T in ref]))
@@ -84,196 +117,434 @@ def _pose_errors(est, ref):
     return s, float(np.median(rot)), float(np.median(cen))
 
 
-def one(spec: dict) -> dict:
-    """Run one scene in this process; returns the measures."""
-    from graphseg.config import Config
+def _relative_rotation_error(est, ref) -> float:
+    """Median angle (deg) between estimated and true relative rotations over all view pairs (no alignment needed)."""
+    errs = []
+    for i in range(len(est)):
+        for j in range(i + 1, len(est)):
+            Re = est[i][:3, :3].T @ est[j][:3, :3]
+            Rg = ref[i][:3, :3].T @ ref[j][:3, :3]
+            errs.append(np.degrees(np.arccos(np.clip((np.trace(Re.T @ Rg) - 1) / 2, -1, 1))))
+    return float(np.median(errs))
+
+
+def _quality(labels, inst, gt_pts, names) -> dict[str, Any]:
     from graphseg.metrics import evaluate
+
+    m = evaluate(labels, inst, gt_pts, names=names)
+    out = {k: m["mean"].get(k) for k in ("iou", "f1", "precision", "recall", "iou_sel", "pq", "pixel_utility")}
+    out["num_pred"], out["num_gt"] = m["num_pred"], m["num_gt"]
+    return out
+
+
+def _load_input(task: dict):
+    from graphseg.io import load_scene
+
+    if task.get("scene_file"):
+        with open(task["scene_file"], "rb") as f:
+            return pickle.load(f)
+    return load_scene(YCBV / task["video"], num_views=10)
+
+
+def one(task: dict) -> dict:
+    """Run one scene in one mode in this process: ``rgb`` (photos only), ``nodepth`` (K + poses kept) or ``depth``."""
     from graphseg.pipeline import lift, run
     from graphseg.scene import SceneError
     from graphseg.sim.strip import rgb_only
 
-    cfg = Config.preset("rgbd")
-    scene = _scene(spec)
-    truth = lift(scene, None, cfg)
+    scene = _load_input(task)
+    mode = task["mode"]
+    cfg = _config(task.get("config"))
+    truth = lift(scene, "rgbd", _config(None))  # the true point maps: what every run is evaluated on
     gt_pts = [v.points for v in truth.views]
     inst = [v.instances for v in scene.views]
-    out = {**spec, "views_n": len(scene)}
-    if spec["mode"] == "depth":
-        inp = scene
-    else:
-        inp = rgb_only(scene, keep_intrinsics=spec["mode"] == "nodepth")
-        if spec["mode"] == "nodepth":  # depth hidden, intrinsics and poses kept
-            inp = type(scene)([v.replace(cam_to_world=w.cam_to_world) for v, w in zip(inp.views, scene.views)], dict(scene.objects), scene.name, dict(scene.meta))
+    out: dict[str, Any] = {"mode": mode, "views": len(scene)}
+    if mode == "depth":
+        c0, t0 = time.process_time(), time.perf_counter()
+        try:
+            result = run(scene, cfg, lifter="rgbd")
+        except (SceneError, ValueError) as err:
+            out["error"] = str(err).splitlines()[0]
+            out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+            return out
+        out["times"] = dict(result.info["pipeline"]["timings"])
+        out["total_s"] = time.perf_counter() - t0
+        out["cpu_s"] = time.process_time() - c0
+        out.update(_quality(result.labels, inst, gt_pts, scene.objects))
+        out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        return out
+    inp = rgb_only(scene, keep_intrinsics=mode == "nodepth")
+    if mode == "nodepth":  # depth hidden, intrinsics and poses kept
+        inp = type(scene)([v.replace(cam_to_world=w.cam_to_world) for v, w in zip(inp.views, scene.views)], dict(scene.objects), scene.name, dict(inp.meta))
     c0, t0 = time.process_time(), time.perf_counter()
     try:
         lifted = lift(inp, None, cfg)
     except SceneError as err:
-        out.update(error=str(err).splitlines()[0], registered=0.0)
+        msg = str(err).splitlines()[0]
+        m = re.search(r"registered (\d+) of (\d+) views", msg)
+        out.update(error=msg, registered=int(m.group(1)) if m else 0, total_s=time.perf_counter() - t0, cpu_s=time.process_time() - c0)
+        out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         return out
     t_lift = time.perf_counter() - t0
     result = run(lifted, cfg)
     times = dict(result.info["pipeline"]["timings"])
     times["lift"] = t_lift
     times["total"] = time.perf_counter() - t0
-    out["cpu_s"] = time.process_time() - c0
     out["times"] = times
-    m = evaluate(result.labels, inst, gt_pts, names=scene.objects)
-    out.update({k: m["mean"].get(k) for k in ("iou", "f1", "iou_sel", "precision", "pixel_utility")})
-    out["objects_pred"] = m["num_pred"]
-    out["objects_gt"] = m["num_gt"]
-    if spec["mode"] != "depth":
-        sfm = lifted.meta.get("sfm", {})
-        out["registered"] = sfm.get("registered", 0) / len(scene)
-        out["scale"] = lifted.meta.get("scale")
-        s, rot, cen = _pose_errors([v.cam_to_world for v in lifted.views], [v.cam_to_world for v in scene.views])
-        dist = np.median([np.linalg.norm(np.nanmedian(p.reshape(-1, 3), 0) - v.cam_to_world[:3, 3]) for p, v in zip(gt_pts, scene.views)])
+    out["total_s"] = times["total"]
+    out["cpu_s"] = time.process_time() - c0
+    out["lifter"] = lifted.meta.get("lifter")
+    # The lifter may keep only the views it registered (``meta["dropped_views"]``): map the
+    # lifted views back to the scene's by name; a dropped view is labelled all background.
+    at = {v.name: i for i, v in enumerate(lifted.views)}
+    labels = [result.labels[at[v.name]] if v.name in at else np.zeros(v.shape, np.int32) for v in scene.views]
+    out.update(_quality(labels, inst, gt_pts, scene.objects))
+    out["dropped_views"] = [v.name for v in scene.views if v.name not in at]
+    out["warnings"] = list(lifted.meta.get("warnings", []))
+    sfm = lifted.meta.get("sfm", {})
+    reg = [i for i, v in enumerate(scene.views) if v.name in at and lifted.views[at[v.name]].cam_to_world is not None and lifted.views[at[v.name]].points is not None]
+    out["registered"] = int(sfm.get("registered", len(reg)))
+    out["scale"] = lifted.meta.get("scale")
+    if len(reg) >= 3:
+        s, rot, cen = _pose_errors([lifted.views[at[scene.views[i].name]].cam_to_world for i in reg], [scene.views[i].cam_to_world for i in reg])
+        dist = np.median([np.linalg.norm(np.nanmedian(gt_pts[i].reshape(-1, 3), 0) - scene.views[i].cam_to_world[:3, 3]) for i in reg])
         out["rot_err_deg"], out["centre_err_rel"] = rot, cen / float(dist)
-        errs, cov, dense = [], [], []
-        for v, g in zip(lifted.views, scene.views):
-            z = v.camera_points()[..., 2] * s
-            ok_gt = g.depth > 0
-            ok = ok_gt & np.isfinite(z)
+    else:
+        s = None
+    if len(reg) >= 2:
+        out["rel_rot_err_deg"] = _relative_rotation_error([lifted.views[at[scene.views[i].name]].cam_to_world for i in reg], [scene.views[i].cam_to_world for i in reg])
+    errs, lifted_frac, dense = [], [], []
+    for i, g in enumerate(scene.views):
+        ok_gt = g.depth > 0
+        if i not in reg:
+            lifted_frac.append(0.0)  # a view without points lifts nothing
+            continue
+        v = lifted.views[at[g.name]]
+        cam = v.camera_points()
+        ok = ok_gt & np.isfinite(cam).all(-1)
+        lifted_frac.append(float(ok.sum() / max(ok_gt.sum(), 1)))
+        dense.append(float(v.meta.get("dense_fraction", 0.0)))
+        if s is not None:
+            z = cam[..., 2] * s
             errs.append(np.abs(z[ok] - g.depth[ok]) / g.depth[ok])
-            cov.append(ok.sum() / max(ok_gt.sum(), 1))
-            dense.append(v.meta.get("dense_fraction", 0.0))
-        e = np.concatenate(errs)
-        out["depth_err_med"] = float(np.median(e)) if e.size else None
-        out["depth_err_p90"] = float(np.percentile(e, 90)) if e.size else None
-        out["coverage"] = float(np.mean(cov))
-        out["dense"] = float(np.mean(dense))
+    e = np.concatenate(errs) if errs else np.zeros(0)
+    out["depth_err_med"] = float(np.median(e)) if e.size else None
+    out["depth_err_p90"] = float(np.percentile(e, 90)) if e.size else None
+    out["lifted_fraction"] = float(np.mean(lifted_frac))
+    out["dense"] = float(np.mean(dense)) if dense else None
     out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return out
 
 
-def cli_timing(tmp: Path) -> dict:
-    """``graphseg run`` on a folder of 8 plain 640x480 images (70-degree arc): wall, CPU, peak RSS of the child."""
-    from graphseg.io.images import write_rgb
-    from graphseg.sim.pybullet_scenes import synthesize
+# ---------------------------------------------------------------------------- driver (parent)
 
-    scene = synthesize(seed=SEEDS[0], objects=5, views=8, size=(640, 480), arc_deg=70.0)
-    folder = tmp / "photos"
-    folder.mkdir(parents=True, exist_ok=True)
-    for v in scene.views:
-        write_rgb(folder / f"{v.name}.png", v.rgb)
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+
+def _child(task: dict) -> dict:
     t = time.perf_counter()
-    proc = subprocess.run([sys.executable, "-m", "graphseg.cli", "run", str(folder), "-o", str(tmp / "out"), "--quiet"], capture_output=True, text=True, env=ENV)
-    wall = time.perf_counter() - t
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return {
-        "exit": proc.returncode,
-        "wall_s": wall,
-        "cpu_s": (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime),
-        "peak_rss_mb": after.ru_maxrss / 1024,
-        "stdout": proc.stdout.strip().splitlines()[:1],
-    }
-
-
-def specs(quick: bool) -> list[dict]:
-    out = []
-    for seed in SEEDS[:1] if quick else SEEDS:
-        for k, (name, arc, n) in enumerate(SYNTH[:2] if quick else SYNTH):
-            if seed != SEEDS[0] and k >= 2:
-                continue  # the second seed for the two acceptance arcs only (CPU time on the shared machine)
-            for mode in ("depth", "rgb"):
-                out.append({"kind": "synth", "scene": f"{name} s{seed}", "group": name, "seed": seed, "arc": arc, "views": n, "mode": mode})
-    if not quick:
-        for vid in ("0001", "0002"):
-            if (YCBV / vid).is_dir():
-                for mode in ("depth", "nodepth", "rgb"):
-                    out.append({"kind": "ycbv", "scene": f"ycbv-{vid}", "group": f"ycbv-{vid}", "video": vid, "mode": mode})
+    try:
+        proc = subprocess.run([sys.executable, __file__, "--one", json.dumps(task)], capture_output=True, text=True, env=ENV, timeout=CHILD_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        return {"mode": task["mode"], "error": f"timed out after {CHILD_TIMEOUT} s", "wall_child_s": time.perf_counter() - t}
+    line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
+    if not line:
+        print(proc.stdout[-2000:], proc.stderr[-4000:], file=sys.stderr)
+        return {"mode": task["mode"], "error": "crashed: " + (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1], "wall_child_s": time.perf_counter() - t}
+    out = json.loads(line[-1][7:])
+    out["wall_child_s"] = time.perf_counter() - t
     return out
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--quick", action="store_true", help="the two acceptance arcs, one seed")
-    ap.add_argument("--json", default="benchmarks/results/rgb_only.json")
-    ap.add_argument("--groups", nargs="+", help="rerun only these scene groups and merge them into the existing JSON")
+def run_scene(spec, tmp: Path, config: str | None, depth_config: str | None) -> dict:
+    """Render ``spec`` once, then run its RGB-only and true-depth subprocesses; one row."""
+    from graphseg.sim.families import make_scene
+
+    t = time.perf_counter()
+    scene = make_scene(spec)
+    render_s = time.perf_counter() - t
+    path = tmp / f"{spec.name}.pkl"
+    with open(path, "wb") as f:
+        pickle.dump(scene, f, protocol=pickle.HIGHEST_PROTOCOL)
+    row: dict[str, Any] = {**spec.to_dict(), "scene": spec.name, "group": "synthetic", "render_s": render_s, "objects_in_scene": len(scene.objects), "fell_off": scene.meta.get("fell_off", [])}
+    del scene
+    row["rgb"] = _child({"scene_file": str(path), "mode": "rgb", "config": config})
+    row["depth"] = _child({"scene_file": str(path), "mode": "depth", "config": depth_config})
+    path.unlink()
+    return row
+
+
+def run_ycb(config: str | None, depth_config: str | None) -> list[dict]:
+    rows = []
+    for vid in ("0001", "0002"):
+        if not (YCBV / vid).is_dir():
+            continue
+        depth = _child({"video": vid, "mode": "depth", "config": depth_config})
+        for mode in ("nodepth", "rgb"):
+            label = f"ycbv-{vid}" + (" (depth hidden, K + poses)" if mode == "nodepth" else "")
+            rows.append({"scene": label, "group": "ycbv", "video": vid, "views": 10, "rgb": _child({"video": vid, "mode": mode, "config": config}), "depth": depth})
+            _progress(rows[-1])
+    return rows
+
+
+def _progress(r: dict) -> None:
+    a, b = r["rgb"], r["depth"]
+    print(
+        f"{r['scene']:32s} reg {a.get('registered', 0)}/{r.get('views')} iou rgb {a.get('iou') or 0:.3f} depth {b.get('iou') or float('nan'):.3f} "
+        f"rgb {a.get('total_s') or float('nan'):.1f}s depth {b.get('total_s') or float('nan'):.1f}s rss {a.get('peak_rss_mb') or float('nan'):.0f}MB {a.get('error', '')}{b.get('error', '')}",
+        flush=True,
+    )
+
+
+# ---------------------------------------------------------------------------- summary
+
+
+def _f(r: dict, run: str, key: str, fail_zero: bool = False):
+    v = r[run].get(key)
+    if v is None and fail_zero and "error" in r[run]:
+        return 0.0
+    return v if isinstance(v, (int, float)) and v == v else None
+
+
+def _mean(vals):
+    vals = [v for v in vals if v is not None]
+    return float(np.mean(vals)) if vals else None
+
+
+def scene_row(r: dict) -> dict:
+    """The flat table row of one scene."""
+    a, b = r["rgb"], r["depth"]
+    iou_a = _f(r, "rgb", "iou", True)
+    iou_b = _f(r, "depth", "iou")
+    return {
+        "scene": r["scene"],
+        "half": r.get("half", "-"),
+        "set": r.get("object_set", "-"),
+        "reg": f"{a.get('registered', 0)}/{r.get('views')}",
+        "rot_deg": a.get("rot_err_deg"),
+        "rel_rot_deg": a.get("rel_rot_err_deg"),
+        "depth_err": a.get("depth_err_med"),
+        "lifted": a.get("lifted_fraction"),
+        "iou": iou_a,
+        "f1": _f(r, "rgb", "f1", True),
+        "prec": _f(r, "rgb", "precision", True),
+        "pq": _f(r, "rgb", "pq", True),
+        "pred/gt": f"{a.get('num_pred', '-')}/{a.get('num_gt', b.get('num_gt', '-'))}",
+        "iou_d": iou_b,
+        "f1_d": _f(r, "depth", "f1"),
+        "prec_d": _f(r, "depth", "precision"),
+        "pq_d": _f(r, "depth", "pq"),
+        "pred/gt_d": f"{b.get('num_pred', '-')}/{b.get('num_gt', '-')}",
+        "gap": None if iou_a is None or iou_b is None else iou_b - iou_a,
+        "lift_s": (a.get("times") or {}).get("lift"),
+        "segment_s": (a.get("times") or {}).get("segment"),
+        "graph_s": (a.get("times") or {}).get("graph"),
+        "total_s": a.get("total_s"),
+        "depth_total_s": b.get("total_s"),
+        "rss_mb": a.get("peak_rss_mb"),
+        "error": _short((a.get("error") or (f"kept {r['views'] - len(a['dropped_views'])} views; dropped (labelled background): {', '.join(a['dropped_views'])}" if a.get("dropped_views") else "")) + (" | depth: " + b["error"] if b.get("error") else "")),
+    }
+
+
+def _short(msg: str, n: int = 110) -> str:
+    """The error as the table shows it (the JSON keeps it whole)."""
+    msg = msg.split(": views: ", 1)[-1]  # drop the scene name the SceneError repeats
+    return msg if len(msg) <= n else msg[: n - 3] + "..."
+
+
+GROUPS: tuple[tuple[str, Any], ...] = (
+    ("all", lambda r: True),
+    ("arcs", lambda r: r["kind"] == "arc"),
+    ("rings", lambda r: r["kind"] == "ring"),
+    ("rings 10 views", lambda r: r["kind"] == "ring" and r["views"] == 10),
+    ("bundled", lambda r: r["object_set"] == "bundled"),
+    ("procedural", lambda r: r["object_set"] == "procedural"),
+    ("mixed", lambda r: r["object_set"] == "mixed"),
+    ("3 views", lambda r: r["views"] == 3),
+    ("5 views", lambda r: r["views"] == 5),
+    ("8 views", lambda r: r["views"] == 8),
+    ("10 views", lambda r: r["views"] == 10),
+    ("touching/stacked", lambda r: r["layout"] in ("touching", "stacked")),
+    ("spread", lambda r: r["layout"] == "spread"),
+    ("varied light", lambda r: r.get("lighting") is not None),
+)
+
+
+def summary_row(label: str, half: str, rs: list[dict]) -> dict:
+    ok = [r for r in rs if "error" not in r["rgb"]]
+    iou_a = _mean([_f(r, "rgb", "iou", True) for r in rs])
+    iou_b = _mean([_f(r, "depth", "iou") for r in rs])
+    return {
+        "half": half,
+        "group": label,
+        "n": len(rs),
+        "ok": len(ok),
+        "registered": _mean([r["rgb"].get("registered", 0) / r["views"] for r in rs]),
+        "rot_deg": _mean([_f(r, "rgb", "rot_err_deg") for r in ok]),
+        "rel_rot_deg": _mean([_f(r, "rgb", "rel_rot_err_deg") for r in ok]),
+        "depth_err": _mean([_f(r, "rgb", "depth_err_med") for r in ok]),
+        "lifted": _mean([_f(r, "rgb", "lifted_fraction") or 0.0 for r in rs]),
+        "iou": iou_a,
+        "f1": _mean([_f(r, "rgb", "f1", True) for r in rs]),
+        "prec": _mean([_f(r, "rgb", "precision", True) for r in rs]),
+        "pq": _mean([_f(r, "rgb", "pq", True) for r in rs]),
+        "pred/gt": _mean([(r["rgb"].get("num_pred") or 0) / max(r["depth"].get("num_gt") or r["rgb"].get("num_gt") or 1, 1) for r in rs]),
+        "iou_d": iou_b,
+        "f1_d": _mean([_f(r, "depth", "f1") for r in rs]),
+        "prec_d": _mean([_f(r, "depth", "precision") for r in rs]),
+        "pq_d": _mean([_f(r, "depth", "pq") for r in rs]),
+        "gap": None if iou_a is None or iou_b is None else iou_b - iou_a,
+        "total_s": _mean([_f(r, "rgb", "total_s") for r in ok]),
+        "max_total_s": max([r["rgb"]["total_s"] for r in rs if r["rgb"].get("total_s") is not None], default=None),
+        "depth_total_s": _mean([_f(r, "depth", "total_s") for r in rs]),
+        "max_rss_mb": max([r["rgb"]["peak_rss_mb"] for r in rs if r["rgb"].get("peak_rss_mb") is not None], default=None),
+    }
+
+
+def summarise(rows: list[dict]) -> list[dict]:
+    synth = [r for r in rows if r.get("group") == "synthetic"]
+    out = []
+    for half in ("tune", "check", "all"):
+        hs = [r for r in synth if half == "all" or r["half"] == half]
+        for label, pred in GROUPS:
+            rs = [r for r in hs if pred(r)]
+            if rs:
+                out.append(summary_row(label, half, rs))
+    return out
+
+
+def checks(rows: list[dict]) -> list[dict]:
+    """The acceptance checks, for the check half (the acceptance) and the tune half (beside it)."""
+    synth = [r for r in rows if r.get("group") == "synthetic"]
+    out = []
+    for half in ("check", "tune", "all"):
+        hs = [r for r in synth if half == "all" or r["half"] == half]
+        if not hs:
+            continue
+        s = summary_row("all", half, hs)
+        out.append({"half": half, "check": f"RGB-only mean IoU >= {TARGET_IOU}", "value": s["iou"], "n": len(hs), "pass": s["iou"] is not None and s["iou"] >= TARGET_IOU})
+        out.append({"half": half, "check": f"gap (true-depth IoU - RGB-only IoU) <= {TARGET_GAP}", "value": s["gap"], "n": len(hs), "pass": s["gap"] is not None and s["gap"] <= TARGET_GAP})
+        rings = [r for r in hs if r["kind"] == "ring" and r["views"] == 10 and 120 <= r["arc_deg"] <= 360]
+        if rings:
+            v = summary_row("rings", half, rings)["iou"]
+            out.append({"half": half, "check": f"10-view rings over 120-360 deg: mean IoU >= {TARGET_RING_IOU}", "value": v, "n": len(rings), "pass": v is not None and v >= TARGET_RING_IOU})
+        eight = [r for r in hs if r["views"] == 8 and tuple(r.get("size", ())) == (640, 480)]
+        if eight:
+            secs = [r["rgb"].get("total_s") for r in eight]
+            rss = [r["rgb"].get("peak_rss_mb") for r in eight]
+            ok_s = all(x is not None and x <= TARGET_SECONDS_8 for x in secs) and all("error" not in r["rgb"] for r in eight)
+            out.append({"half": half, "check": f"8 views 640x480: RGB-only total <= {TARGET_SECONDS_8:.0f} s (every scene; max shown)", "value": max([x for x in secs if x is not None], default=None), "n": len(eight), "pass": ok_s})
+            out.append({"half": half, "check": f"8 views 640x480: peak RSS <= {TARGET_RSS_MB_8:.0f} MB (every scene; max shown)", "value": max([x for x in rss if x is not None], default=None), "n": len(eight), "pass": all(x is not None and x <= TARGET_RSS_MB_8 for x in rss)})
+    return out
+
+
+SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
+SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
+CHECK_COLS = ["half", "check", "n", "value", "pass"]
+
+
+def _git() -> dict:
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    status = [line[3:] for line in git("status", "--porcelain").splitlines() if line.strip()]
+    return {"commit": git("rev-parse", "HEAD") or None, "uncommitted_files": len(status), "uncommitted": status}
+
+
+def report(payload: dict, path: Path) -> None:
+    rows = payload["rows"]
+    synth = [r for r in rows if r.get("group") == "synthetic"]
+    print("\nPer scene (RGB-only: photos only, no depth, poses or intrinsics; *_d: the same scene with true depth):")
+    t1 = print_table([scene_row(r) for r in synth], SCENE_COLS)
+    print("\nSummary (means; a failed RGB-only run counts as IoU/F1/precision/PQ 0; rot/depth errors over the runs that succeeded):")
+    t2 = print_table(payload["summary"], SUMMARY_COLS)
+    print("\nAcceptance checks (issue 20; the check half is the acceptance, tune and all beside it):")
+    t3 = print_table(payload["checks"], CHECK_COLS)
+    ycb = [r for r in rows if r.get("group") == "ycbv"]
+    t4 = ""
+    if ycb:
+        print("\nYCB-Video (extra group, not part of the halves):")
+        t4 = print_table([scene_row(r) for r in ycb], SCENE_COLS)
+    write_json(str(path), payload)
+    git = payload.get("git", {})
+    md = path.with_suffix(".md")
+    md.write_text(
+        "# RGB-only (structure from motion) against true depth\n\n"
+        f"`python benchmarks/bench_rgb_only.py {' '.join(payload.get('argv', []))}`; graphseg commit `{git.get('commit')}` "
+        f"({git.get('uncommitted_files', 0)} uncommitted files); RGB-only config: {payload.get('config_source')}; true-depth config: {payload.get('depth_config_source')}; "
+        f"{payload.get('elapsed_s', 0) / 60:.1f} min on {payload.get('machine_note', '')}.\n\n"
+        "RGB-only = depth, poses and intrinsics removed; `*_d` = the same scene with its true depth. "
+        "IoU, F1, precision and PQ are computed on the true point maps for both runs; a failed RGB-only run counts as 0.\n\n"
+        "## Acceptance checks\n\n" + t3 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
+    )
+    print(f"wrote {md}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--half", choices=["tune", "check", "all"], default="all")
+    ap.add_argument("--scenes", help="comma-separated scene names (graphseg.sim.families)")
+    ap.add_argument("--config", help="YAML config over Config.preset('rgbd') for the RGB-only runs")
+    ap.add_argument("--depth-config", help="YAML config over Config.preset('rgbd') for the true-depth runs (default: the preset)")
+    ap.add_argument("--json", help="output JSON (default benchmarks/results/rgb_only.json; rgb_only.partial.json for a partial run)")
+    ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
+    ap.add_argument("--ycb", action="store_true", help="add the YCB-Video rows (extra group)")
+    ap.add_argument("--merge", action="store_true", help="merge the rows of the selected scenes into the existing JSON")
+    ap.add_argument("--list", action="store_true", help="list the scenes and exit")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.one:
         print("RESULT " + json.dumps(one(json.loads(args.one)), default=float), flush=True)
         return 0
-    rows = []
-    todo = specs(args.quick)
-    old_cli = None
-    if args.groups:
-        old = json.loads(Path(args.json).read_text())
-        rows = [r for r in old["rows"] if r["group"] not in args.groups]
-        old_cli = old.get("cli_8_views")
-        todo = [s for s in todo if s["group"] in args.groups]
-    for spec in todo:
-        proc = subprocess.run([sys.executable, __file__, "--one", json.dumps(spec)], capture_output=True, text=True, env=ENV)
-        line = [x for x in proc.stdout.splitlines() if x.startswith("RESULT ")]
-        if not line:
-            print(proc.stdout[-2000:], proc.stderr[-4000:], file=sys.stderr)
-            rows.append({**spec, "error": "crashed: " + (proc.stderr.strip().splitlines() or ["?"])[-1]})
-        else:
-            rows.append(json.loads(line[0][7:]))
-        r = rows[-1]
-        print(f"{r['scene']:16s} {r['mode']:8s} iou {r.get('iou') or float('nan'):.3f} lift {r.get('times', {}).get('lift', float('nan')):.1f}s {r.get('error', '')}", flush=True)
-    import tempfile
+    from graphseg.sim import families
 
-    if old_cli is not None:
-        cli = old_cli
-    else:
-        with tempfile.TemporaryDirectory() as tmp:
-            cli = cli_timing(Path(tmp))
-    print(f"CLI run, 8 views 640x480 RGB-only: exit {cli['exit']}, {cli['wall_s']:.1f} s wall, {cli['cpu_s']:.1f} s CPU, {cli['peak_rss_mb']:.0f} MB peak RSS")
-    table = summarise(rows)
-    cols = ["scenes", "n", "registered", "rot_err_deg", "centre_err_rel", "depth_err_med", "coverage", "dense", "iou_depth", "iou_rgb", "f1_rgb", "util_rgb", "lift_s", "total_s", "cpu_s", "peak_rss_mb"]
-    text = print_table(table, cols)
-    write_json(args.json, {"rows": rows, "summary": table, "cli_8_views": cli})
-    md = Path(args.json).with_suffix(".md")
-    md.write_text(
-        "# RGB-only (structure from motion)\n\n"
-        + text
-        + f"\n\n`graphseg run` on 8 plain 640x480 images (70-degree arc): exit {cli['exit']}, {cli['wall_s']:.1f} s wall, "
-        f"{cli['cpu_s']:.1f} s CPU, {cli['peak_rss_mb']:.0f} MB peak RSS.\n"
-    )
-    print(f"wrote {md}")
+    if args.list:
+        print(families.describe(args.half))
+        return 0
+    todo = families.scenes(args.half)
+    if args.scenes:
+        names = [n.strip() for n in args.scenes.split(",") if n.strip()]
+        todo = [families.get(n) for n in names]
+    if args.quick:
+        todo = [families.get(n) for n in QUICK if families.get(n) in todo]
+    partial = args.quick or bool(args.scenes) or args.half != "all"
+    path = Path(args.json) if args.json else RESULTS / ("rgb_only.partial.json" if partial and not args.merge else "rgb_only.json")
+    config = str(Path(args.config).resolve()) if args.config else None
+    depth_config = str(Path(args.depth_config).resolve()) if args.depth_config else None
+    old_rows: list[dict] = []
+    if args.merge:
+        old = json.loads(path.read_text())
+        names = {s.name for s in todo}
+        old_rows = [r for r in old["rows"] if r["scene"] not in names and not (args.ycb and r.get("group") == "ycbv")]
+    t0 = time.perf_counter()
+    load0 = os.getloadavg()
+    rows: list[dict] = []
+    with tempfile.TemporaryDirectory(prefix="bench-rgb-only-") as tmp:
+        for spec in todo:
+            rows.append(run_scene(spec, Path(tmp), config, depth_config))
+            _progress(rows[-1])
+    if args.ycb:
+        rows += run_ycb(config, depth_config)
+    order = {s.name: i for i, s in enumerate(families.SCENES)}
+    rows = sorted(old_rows + rows, key=lambda r: (r.get("group") != "synthetic", order.get(r["scene"], 10**6), r["scene"]))
+    payload = {
+        "argv": list(sys.argv[1:] if argv is None else argv),
+        "git": _git(),
+        "config_source": args.config or "Config.preset('rgbd')",
+        "depth_config_source": args.depth_config or "Config.preset('rgbd')",
+        "config": _config(config).to_dict(),
+        "depth_config": _config(depth_config).to_dict(),
+        "machine_note": f"{os.cpu_count()} CPU cores, shared (1/5/15-min load average at the start: {', '.join(f'{x:.1f}' for x in load0)}; at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())})",
+        "elapsed_s": time.perf_counter() - t0,
+        "families": [s.to_dict() for s in families.SCENES],
+        "targets": {"iou": TARGET_IOU, "gap": TARGET_GAP, "ring_iou": TARGET_RING_IOU, "seconds_8_views": TARGET_SECONDS_8, "rss_mb_8_views": TARGET_RSS_MB_8},
+        "rows": rows,
+        "summary": summarise(rows),
+        "checks": checks(rows),
+    }
+    report(payload, path)
     return 0
-
-
-def summarise(rows: list[dict]) -> list[dict]:
-    """Mean per scene group and mode (RGB-only rows next to their own given-depth runs)."""
-    out = []
-    groups: dict[tuple[str, str], list[dict]] = {}
-    for r in rows:
-        mode = r["mode"]
-        groups.setdefault((r["group"], mode), []).append(r)
-
-    def mean(rs: list[dict], key: str, sub: str | None = None):
-        vals = [(r.get(sub, {}) or {}).get(key) if sub else r.get(key) for r in rs]
-        vals = [v for v in vals if isinstance(v, (int, float)) and v == v]
-        return float(np.mean(vals)) if vals else None
-
-    for (group, mode), rs in groups.items():
-        if mode == "depth":
-            continue
-        base = groups.get((group, "depth"), [])
-        ok = [r for r in rs if "error" not in r]
-        label = group if mode == "rgb" else f"{group} (depth hidden, K + poses)"
-        out.append({
-            "scenes": label,
-            "n": f"{len(ok)}/{len(rs)}",
-            "registered": float(np.mean([r.get("registered", 0.0) for r in rs])),
-            "rot_err_deg": mean(ok, "rot_err_deg"),
-            "centre_err_rel": mean(ok, "centre_err_rel"),
-            "depth_err_med": mean(ok, "depth_err_med"),
-            "coverage": mean(ok, "coverage"),
-            "dense": mean(ok, "dense"),
-            "iou_depth": mean(base, "iou"),
-            "iou_rgb": float(np.mean([r.get("iou") or 0.0 for r in rs])),  # a failed run counts as 0
-            "f1_rgb": float(np.mean([r.get("f1") or 0.0 for r in rs])),
-            "util_rgb": mean(ok, "pixel_utility"),
-            "lift_s": mean(ok, "lift", "times"),
-            "total_s": mean(ok, "total", "times"),
-            "cpu_s": mean(ok, "cpu_s"),
-            "peak_rss_mb": mean(ok, "peak_rss_mb"),
-        })
-    return out
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ Traceback (most recent call last):
 ...
 pydantic_core._pydantic_core.ValidationError: 1 validation error for Config
 stages.1.0
-  chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune; did you mean 'tau'? [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
+  chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune, min_confidence, spacing_factor, fragment_ratio; did you mean 'tau'? [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
 
 Every number must be finite (``.inf`` and ``.nan`` are refused), and
 :func:`validation_message` turns a validation error into the one line the
@@ -72,6 +72,7 @@ __all__ = [
     "BackgroundConfig",
     "MaskConfig",
     "ObjectConfig",
+    "LiftedConfig",
     "PairConfig",
     "CriterionSpec",
     "ContractorSpec",
@@ -131,17 +132,65 @@ class MaskConfig(_Model):
 class ObjectConfig(_Model):
     """The minimum support of an object; objects below it become background.
 
-    A final super-vertex is kept as an object only if its pixels with a valid 3D
-    point appear in at least ``min(min_views, number of views)`` views and
-    number at least ``min_point_fraction`` of one view's pixels over all views
-    (3e-4: 92 points at 640x480; a fraction, so the rule does not depend on the
-    image size). Below that it is a stray fragment (a patch of table texture, a
-    floor tile, a lifting artefact), not an object: its masks get object id 0
-    and ``Result.info["support"]`` lists it.
+    A final super-vertex is kept as an object only if it has at least
+    ``min_point_fraction`` of one view's pixels in valid 3D points over all
+    views (3e-4: 92 points at 640x480; fractions, so the rules do not depend on
+    the image size) and it is seen in at least ``min(min_views, number of
+    views)`` views: the views it has masks in, plus, for an object of at least
+    ``confirm_fraction`` of a view's pixels, the other views that see its
+    points where they are (foreground at the same depth; a graph that left an
+    object unmerged does not lose it). Below that it is a stray fragment (a
+    patch of table texture, a floor tile lifted to the wrong depth), not an
+    object: its masks get object id 0 and ``Result.info["support"]`` lists it.
+    With ``merge_seen``, such a one-view object joins the object with full
+    support that most of its confirming pixels belong to (the graph missed
+    the edge); :class:`LiftedConfig` turns it on for estimated points.
     """
 
-    min_views: int = Field(2, ge=1, description="views an object must appear in (capped at the number of views)")
+    min_views: int = Field(2, ge=1, description="views an object must be seen in (capped at the number of views)")
     min_point_fraction: float = Field(3e-4, ge=0, le=1, description="valid 3D points an object needs over all views, as a fraction of one view's pixels")
+    confirm_fraction: float = Field(
+        2e-3, ge=0, le=1, description="an object in fewer views than min_views may count the other views that see it only from this size up (fraction of one view's pixels)"
+    )
+    merge_seen: bool = Field(False, description="a one-view object that the other views see as one object with full support joins it")
+
+
+class LiftedConfig(_Model):
+    """Criterion and object options for point maps that a lifter estimated from images (not measured depth).
+
+    Points from structure from motion or a learned lifter are noisier near
+    object borders than measured depth, and small noisy super-vertices then
+    bridge two objects in the 3D stage. When the scene was lifted by one of
+    ``lifters``, every stage entry of a criterion named in ``criteria`` gets
+    those options on top of its own (:meth:`Config.for_lifter`; the options are
+    validated like any stage entry). The default gives ``chamfer_3d`` a
+    ``fragment_ratio`` of 0.5, chosen on the tuning half of
+    ``bench_rgb_only.py``; measured depth keeps the preset's options (the same
+    rule lowered YCB-Video 0001 at 3 and 5 views; ``docs/results.md``).
+    ``objects`` goes on top of :class:`ObjectConfig` the same way: by default
+    ``merge_seen``, since a one-view object that the other views see as a
+    known object is a missed edge when poses and points are estimated, while
+    with measured depth it lowered two rows of ``bench_quality.py``.
+    """
+
+    lifters: list[str] = Field(default_factory=lambda: ["sfm", "dust3r", "da3"], description="lifters whose points get these options")
+    criteria: dict[str, dict[str, Any]] = Field(
+        default_factory=lambda: {"chamfer_3d": {"fragment_ratio": 0.5}}, description="criterion name -> options applied on top of its stage entries"
+    )
+    objects: dict[str, Any] = Field(default_factory=lambda: {"merge_seen": True}, description="ObjectConfig fields applied on top of the objects section")
+
+    @field_validator("objects")
+    @classmethod
+    def _known_object_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
+        ObjectConfig.model_validate(v)  # unknown field or bad value: one line naming it
+        return v
+
+    @field_validator("criteria")
+    @classmethod
+    def _known_criteria(cls, v: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        for name, opts in v.items():
+            CriterionSpec.model_validate({name: opts})  # unknown criterion or option: one line naming it
+        return v
 
 
 class PairConfig(_Model):
@@ -392,6 +441,7 @@ class Config(_Model):
     background: BackgroundConfig = Field(default_factory=BackgroundConfig)
     masks: MaskConfig = Field(default_factory=MaskConfig)
     objects: ObjectConfig = Field(default_factory=ObjectConfig)
+    lifted: LiftedConfig = Field(default_factory=LiftedConfig)
     pairs: PairConfig = Field(default_factory=PairConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
     backends: BackendConfig = Field(default_factory=BackendConfig)
@@ -455,6 +505,26 @@ class Config(_Model):
         stages = [[c for c in s if c.info().dimension != "3d"] for s in self.stages]
         kept = [s for s in stages if s] or [[CriterionSpec.model_validate("pixel_match")]]
         return self.model_copy(update={"stages": kept})
+
+    def for_lifter(self, lifter: str | None) -> Config:
+        """The configuration a scene lifted by ``lifter`` runs with (see :class:`LiftedConfig`).
+
+        Examples
+        --------
+        >>> cfg = Config.preset("rgbd")
+        >>> cfg.for_lifter("sfm").criterion_options("chamfer_3d")["fragment_ratio"]
+        0.5
+        >>> cfg.objects.merge_seen, cfg.for_lifter("sfm").objects.merge_seen
+        (False, True)
+        >>> cfg.for_lifter("rgbd") is cfg
+        True
+        """
+        if lifter is None or lifter not in self.lifted.lifters or not (self.lifted.criteria or self.lifted.objects):
+            return self
+        over = self.lifted.criteria
+        stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in self.stages]
+        objects = ObjectConfig.model_validate({**self.objects.model_dump(), **self.lifted.objects})
+        return self.model_copy(update={"stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages], "objects": objects})
 
     def stage_names(self) -> list[list[str]]:
         """The criterion names of every stage."""

@@ -219,6 +219,7 @@ def run(
         scene, cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, masks=masks, matches=matches, points=points, progress=progress
     )
     times.update(step_times)
+    cfg = cfg.for_lifter(scene.meta.get("lifter"))  # options for estimated (not measured) points
     feats = None
     if "features" in cfg.requires():
         t = time.perf_counter()
@@ -229,6 +230,11 @@ def run(
     result = segment(scene, masks, matches, cfg, features=feats)
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
+    lift_warnings = list(scene.meta.get("warnings") or [])  # e.g. views structure from motion did not register
+    if lift_warnings:
+        result.info["warnings"] = [*lift_warnings, *result.info.get("warnings", [])]
+    if scene.meta.get("dropped_views"):
+        result.info["dropped_views"] = list(scene.meta["dropped_views"])
     result.info["pipeline"] = {
         "segmenter": "given" if masks_given else _name(segmenter, cfg.backends.segmenter),
         "matcher": "given" if matches_given else (_name(matcher, cfg.backends.matcher) if "matches" in cfg.requires() else None),

@@ -116,7 +116,12 @@ class Result:
 
     # ----------------------------------------------------------------- files
     def save(self, path: str | PathLike[str]) -> None:
-        """Write the result as one native graph file (``.npz``; see :mod:`graphseg.graphs.native`)."""
+        """Write the result as one native graph file (``.npz``; see :mod:`graphseg.graphs.native`).
+
+        The file leaves out the wall-clock timings of ``info`` (``timings``,
+        ``seconds``; ``run.json`` of an output folder keeps them), so the same
+        result gives the same bytes.
+        """
         arrays: dict[str, np.ndarray] = {
             "mask_view": self.mask_view,
             "mask_id": self.mask_id,
@@ -135,7 +140,7 @@ class Result:
             "kind": "graphseg-result",
             "config": self.config.to_dict(),
             "view_names": self.view_names,
-            "info": json.loads(json.dumps(self.info, default=_jsonable)),
+            "info": _without_timings(json.loads(json.dumps(self.info, default=_jsonable))),
             "num_stages": len(self.graphs),
         }
         save_native(path, {f"stage{s}": g for s, g in enumerate(self.graphs)}, arrays, meta)
@@ -237,6 +242,19 @@ class Result:
             background=bg,
             info=info,
         )
+
+
+def _without_timings(x: Any) -> Any:
+    """``x`` (parsed JSON) without the keys ``timings`` and ``seconds`` at any depth.
+
+    >>> _without_timings({"a": 1, "timings": {"x": 2}, "stages": [{"seconds": 0.1, "nodes": 3}]})
+    {'a': 1, 'stages': [{'nodes': 3}]}
+    """
+    if isinstance(x, dict):
+        return {k: _without_timings(v) for k, v in x.items() if k not in ("timings", "seconds")}
+    if isinstance(x, list):
+        return [_without_timings(v) for v in x]
+    return x
 
 
 def _jsonable(x: Any) -> Any:

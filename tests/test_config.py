@@ -122,7 +122,7 @@ def test_without_3d_acts_on_the_dimension_tag(near3d):
 
 
 def test_requires_and_reduce_come_from_the_criteria():
-    assert Config().requires() == {"matches", "points"}
+    assert Config().requires() == {"matches", "points", "confidence"}
     assert "features" in Config(stages=[["pixel_match", "dino"]]).requires()
     assert Config().edge_reduce()["distance"] == "min"
 
@@ -227,3 +227,25 @@ def test_syntax_errors_give_line_and_column(name, text, message, tmp_path):
         Config.load(p)
     assert load_error_message(err.value) == message
 
+
+
+def test_lifted_points_get_their_own_criterion_options():
+    """Issue 20: estimated point maps (sfm, dust3r, da3) run chamfer_3d with fragment_ratio 0.5;
+    measured depth keeps the preset's options."""
+    cfg = Config.preset("rgbd")
+    assert cfg.criterion_options("chamfer_3d")["fragment_ratio"] is None
+    sfm = cfg.for_lifter("sfm")
+    assert sfm.criterion_options("chamfer_3d")["fragment_ratio"] == 0.5
+    assert sfm.criterion_options("chamfer_3d")["tau"] == cfg.criterion_options("chamfer_3d")["tau"]  # the rest kept
+    assert cfg.for_lifter("rgbd") is cfg and cfg.for_lifter(None) is cfg and cfg.for_lifter("given") is cfg
+    assert cfg.criterion_options("chamfer_3d")["fragment_ratio"] is None  # not mutated
+    assert cfg.objects.merge_seen is False and sfm.objects.merge_seen is True  # and the object rule
+    assert sfm.objects.min_views == cfg.objects.min_views
+    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}})
+    assert off.for_lifter("sfm") is off
+    with pytest.raises(ValidationError, match="merge_sen"):
+        Config(lifted={"objects": {"merge_sen": True}})
+    with pytest.raises(ValidationError, match="unknown option 'fragment_ration'"):
+        Config(lifted={"criteria": {"chamfer_3d": {"fragment_ration": 0.5}}})
+    with pytest.raises(ValidationError, match="nope"):
+        Config(lifted={"criteria": {"nope": {}}})

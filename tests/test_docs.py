@@ -87,3 +87,36 @@ def test_plugins_tutorial_runs_and_its_criteria_work(extras_installed, tmp_path,
 def test_architecture_page_points_to_the_tutorial():
     text = (DOCS / "architecture.md").read_text()
     assert "plugins.md" in text and "adder_options" not in text
+
+
+def _extras_closure(optional, names):
+    """The requirement strings of the extras ``names``, following graphseg[...] self-references."""
+    out, todo, seen = [], list(names), set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        for req in optional.get(name, []):
+            if m := re.fullmatch(r"graphseg\[(.+)\]", req.replace(" ", "")):
+                todo += m.group(1).split(",")
+            else:
+                out.append(req)
+    return out
+
+
+def test_readme_says_which_commands_need_torch():
+    """Issue 19: the README told every user to install torch first; only some extras pull it."""
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "README.md").read_text()
+    optional = tomllib.loads((root / "pyproject.toml").read_text())["project"]["optional-dependencies"]
+    main = readme.split("<!-- main-command -->", 1)[1].split("```", 2)[1]
+    extras = re.search(r'pip install "\.\[([\w,]+)\]"', main).group(1).split(",")
+    assert not any(r.startswith("torch") for r in _extras_closure(optional, extras)), main
+    assert "This command needs no torch" in readme
+    para = readme[readme.index("**torch first.**"):].split("\n\n", 1)[0]
+    named = re.findall(r"`(\w+)`", para.split("Before any of them")[0])
+    free = re.findall(r"`(\w+)`", para.split("The main")[1])
+    pulls = {e for e in optional if any(r.startswith("torch") for r in _extras_closure(optional, [e]))}
+    assert set(named) == pulls, (named, pulls)
+    assert free and not set(free) & pulls, (free, pulls)

@@ -103,3 +103,16 @@ def test_evidence_is_computed_only_when_a_criterion_requires_it():
     only_3d = run(scene, Config(stages=[["chamfer_3d"]]))
     assert "match" not in only_3d.info["pipeline"]["timings"] and only_3d.info["num_matches"] == 0
     assert only_3d.num_objects == 2
+
+
+def test_estimated_points_run_with_the_lifted_options():
+    """A scene lifted by structure from motion runs chamfer_3d with config.lifted's options; the
+    same scene marked as measured depth runs the preset unchanged (Result.config records which)."""
+    from graphseg.scene import Scene
+
+    scene = box_scene(TWO_BOXES)
+    as_sfm = Scene(scene.views, scene.objects, scene.name, {**scene.meta, "lifter": "sfm"})
+    r = run(as_sfm, Config.preset("rgbd"))
+    assert r.config.criterion_options("chamfer_3d")["fragment_ratio"] == 0.5 and r.num_objects == 2
+    plain = run(scene, Config.preset("rgbd"))
+    assert plain.config.criterion_options("chamfer_3d")["fragment_ratio"] is None

@@ -165,3 +165,165 @@ def test_fell_off_warning_wording():
     assert s.meta["fell_off"] == [] and fell_off_warning(s) is None
     s.meta["fell_off"] = ["sphere"]  # the rare leftover case, as the CLI and the job report it
     assert fell_off_warning(s) == "1 of 3 objects did not stay on the table and are not in the scene: sphere"
+
+
+# --------------------------------------------------------------- issue 20: generator options
+
+
+def _digest(scene):
+    import hashlib
+
+    m = hashlib.sha256()
+    for v in scene.views:
+        for a in (v.rgb, v.depth, v.instances, v.K, v.cam_to_world):
+            m.update(np.ascontiguousarray(a).tobytes())
+    m.update(repr(sorted(scene.objects.items())).encode())
+    return m.hexdigest()
+
+
+@pytest.mark.parametrize(
+    "kwargs, expected",
+    [
+        # computed with the generator as it was before the options (object_set, table_texture, lighting) existed
+        (dict(seed=0, objects=3, views=2, size=(96, 72)), "728ee55ec4bc17e595348d2033500c20e08717cf354a1b1ab6d8e5cd466728e5"),
+        (dict(seed=7, objects=5, views=3, size=(160, 120), arc_deg=50.0, layout="touching"), "878e1dff9a9008387fc7480a9b15ab2680713574538366cb1029fd065aa7d98e"),
+    ],
+)
+def test_default_output_is_unchanged_by_the_options(kwargs, expected):
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    s = synthesize(**kwargs)
+    assert _digest(s) == expected
+    assert {"object_set", "table_texture", "lighting"}.isdisjoint(s.meta)
+    # the defaults spelt out give the same scene
+    assert _digest(synthesize(**kwargs, object_set="bundled", table_texture=None, lighting=None)) == expected
+
+
+_OPTIONS = dict(seed=11, objects=4, views=2, size=(64, 48), object_set="mixed", table_texture="noise", lighting="vary", arc_deg=40.0)
+
+
+def test_options_render_byte_identically_across_processes():
+    import json
+    import subprocess
+    import sys
+
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    code = (
+        "import json, sys\n"
+        "from tests.test_sim import _digest\n"
+        "from graphseg.sim.pybullet_scenes import synthesize\n"
+        "kw = json.loads(sys.argv[1]); kw['size'] = tuple(kw['size'])\n"
+        "print(_digest(synthesize(**kw)))\n"
+    )
+    here = _digest(synthesize(**_OPTIONS))
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code, json.dumps(_OPTIONS)], capture_output=True, text=True, cwd=root, check=True)
+    assert out.stdout.split()[-1] == here
+    for oset in ("procedural", "bundled"):  # and again in this process, for the other sets
+        kw = {**_OPTIONS, "object_set": oset, "table_texture": "photo"}
+        assert _digest(synthesize(**kw)) == _digest(synthesize(**kw))
+
+
+def test_procedural_objects_record_their_options():
+    from graphseg.sim.pybullet_scenes import OBJECT_TEXTURES, synthesize
+
+    s = synthesize(seed=4, objects=5, views=1, size=(64, 48), object_set="procedural", table_texture="cloth", lighting="vary")
+    s.validate()
+    assert s.meta["object_set"] == "procedural" and s.meta["table_texture"] == "cloth"
+    assert set(s.meta["lighting"]) >= {"lightDirection", "lightColor", "shadow"}
+    assert len(s.objects) == 5 and s.meta["fell_off"] == []
+    for name in s.objects.values():
+        texture, kind = name.split()
+        assert texture in OBJECT_TEXTURES and kind in ("box", "cylinder", "sphere")
+
+
+def test_table_texture_and_lighting_do_not_move_the_objects():
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    kw = dict(seed=2, objects=4, views=2, size=(96, 72))
+    base = synthesize(**kw)
+    for extra in (dict(table_texture="checker"), dict(lighting="vary"), dict(lighting={"lightDirection": [1, 0, 2], "shadow": True})):
+        s = synthesize(**kw, **extra)
+        assert s.objects == base.objects
+        for a, b in zip(s.views, base.views):
+            assert np.array_equal(a.instances, b.instances) and np.array_equal(a.depth, b.depth)
+            assert not np.array_equal(a.rgb, b.rgb)  # but they are seen differently
+
+
+def _edge_energy(rgb, mask):
+    """Mean absolute horizontal + vertical colour difference (summed over R, G, B) inside ``mask`` (eroded by 2 pixels)."""
+    from scipy.ndimage import binary_erosion
+
+    g = rgb.astype(np.float64)
+    inner = binary_erosion(mask, iterations=2)
+    dx = np.abs(np.diff(g, axis=1)).sum(-1)[inner[:, 1:] & inner[:, :-1]]
+    dy = np.abs(np.diff(g, axis=0)).sum(-1)[inner[1:] & inner[:-1]]
+    return float(np.concatenate([dx, dy]).mean())
+
+
+@pytest.mark.parametrize("kind", ["box", "cylinder", "sphere"])
+def test_tinyrenderer_maps_textures_on_procedural_shapes(kind, tmp_path):
+    """A striped (or noise / photo-like) shape shows its texture: strong pixel-to-pixel change where a plain one has almost none."""
+    import pybullet_data
+
+    from graphseg.sim.pybullet_scenes import (
+        Shape,
+        _create_shape,
+        _load_texture,
+        object_texture,
+        render_view,
+    )
+
+    size = {"box": (0.08, 0.08, 0.08), "cylinder": (0.04, 0.08), "sphere": (0.045,)}[kind]
+    energy = {}
+    for texture in ("plain", "stripes", "noise", "photo"):
+        cid = pb.connect(pb.DIRECT)
+        try:
+            pb.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
+            img = object_texture(texture, np.random.default_rng(5))
+            shape = Shape(kind, size, texture, (0.7, 0.3, 0.2, 1.0) if img is None else (1.0, 1.0, 1.0, 1.0), img)
+            tid = None if img is None else _load_texture(pb, cid, img, str(tmp_path), texture)
+            b = _create_shape(pb, cid, shape, [0, 0, 0], pb.getQuaternionFromEuler([0.3, 0.2, 0.4]), tid)
+            rgb, _, body, _, _ = render_view(pb, cid, np.array([0.0, -0.25, 0.12]), np.zeros(3), (160, 120), 50.0)
+        finally:
+            pb.disconnect(physicsClientId=cid)
+        assert (body == b).sum() > 500
+        energy[texture] = _edge_energy(rgb, body == b)
+    assert energy["plain"] < 4.0, energy
+    for texture in ("stripes", "noise", "photo"):
+        assert energy[texture] > 2.5 * max(energy["plain"], 1.0), energy
+
+
+def test_table_textures_appear():
+    from graphseg.sim.pybullet_scenes import TABLE_TEXTURES, synthesize
+
+    energy = {}
+    for tex in (None, *TABLE_TEXTURES):
+        s = synthesize(seed=1, objects=1, views=1, size=(160, 120), table_texture=tex)
+        v = s.views[0]
+        pts = v.camera_points() @ v.cam_to_world[:3, :3].T + v.cam_to_world[:3, 3]
+        top = (v.instances == 0) & (np.abs(pts[..., 2] - 0.626) < 0.003)  # the table top, no object
+        assert top.sum() > 2000
+        energy[tex] = _edge_energy(v.rgb, top)
+    assert energy["plain"] < 1.0, energy
+    for tex in ("checker", "noise", "cloth", "photo"):
+        assert energy[tex] > 3 * energy["plain"] + 2.0, energy
+    assert energy["wood"] > 2 * energy["plain"], energy
+
+
+def test_bad_options_are_refused():
+    from graphseg.sim.pybullet_scenes import synthesize
+
+    with pytest.raises(ValueError, match="unknown object set 'lego'"):
+        synthesize(object_set="lego")
+    with pytest.raises(ValueError, match="unknown table texture 'marble'"):
+        synthesize(table_texture="marble")
+    with pytest.raises(ValueError, match="unknown keys lightPower"):
+        synthesize(lighting={"lightPower": 2})
+    with pytest.raises(ValueError, match="expected None, 'vary' or a dict"):
+        synthesize(lighting="bright")
+    with pytest.raises(ValueError, match="3 finite numbers"):
+        synthesize(lighting={"lightDirection": [1, 2]})

@@ -75,6 +75,20 @@ class SfmReconstruction:
     def num_registered(self) -> int:
         return int(np.count_nonzero(self.registered))
 
+    def select(self, indices: Any) -> SfmReconstruction:
+        """The reconstruction of the views ``indices`` only (same points; a new object)."""
+        idx = [int(i) for i in indices]
+        return SfmReconstruction(
+            self.registered[idx].copy(),
+            [self.K[i] for i in idx],
+            [self.dist[i] for i in idx],
+            [self.cam_to_world[i] for i in idx],
+            self.points,
+            [self.observations[i] for i in idx],
+            self.reprojection_error,
+            dict(self.info),
+        )
+
     def transformed(self, s: float, R: np.ndarray, t: np.ndarray) -> SfmReconstruction:
         """The reconstruction moved by the similarity ``x -> s R x + t`` (a new object)."""
         R = np.asarray(R, np.float64)
@@ -106,25 +120,38 @@ def not_registered_message(registered: int, total: int) -> str:
     )
 
 
-def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, known_K: bool) -> tuple[Any, Any, Any]:
+def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, seed: int, known_K: bool, pooling: bool = False) -> tuple[Any, Any, Any]:
+    """COLMAP's options: single-threaded (reproducible), guided matching and low inlier minimums.
+
+    Guided matching (matches re-searched along the epipolar lines of the
+    first two-view geometry) with the minimums lowered (10 matches, 25 inliers
+    for the initial pair, 10 for a new view) registered every view of the five
+    tuning-half scenes of ``bench_rgb_only.py`` where COLMAP's settings here
+    registered 0-7 of 3-10 (repeated stripes, checker and photo textures,
+    10-view rings; ``docs/results.md``). ``pooling`` turns on SIFT's
+    domain-size pooling (descriptors pooled over several patch sizes).
+    """
     ext = pycolmap.FeatureExtractionOptions()
     ext.sift.peak_threshold = peak_threshold
     ext.sift.max_num_features = 8192
-    ext.num_threads = 1  # (with several threads the results differ from run to run)
+    ext.sift.domain_size_pooling = pooling
+    ext.num_threads = 1  # with several threads the image ids, and so the results, change from run to run
     ext.use_gpu = False
     match = pycolmap.FeatureMatchingOptions()
     match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
     match.use_gpu = False
+    match.guided_matching = True
     inc = pycolmap.IncrementalPipelineOptions()
     inc.num_threads = 1  # multi-threaded bundle adjustment changes the result from run to run
     inc.random_seed = seed
     inc.min_model_size = 2
     inc.multiple_models = False
     inc.extract_colors = False
-    inc.min_num_matches = 15
+    inc.min_num_matches = 10
     inc.mapper.init_min_tri_angle = min_tri_angle
-    inc.mapper.init_min_num_inliers = 50
-    inc.mapper.abs_pose_min_num_inliers = 15
+    inc.mapper.init_min_num_inliers = 25
+    inc.mapper.abs_pose_min_num_inliers = 10
+    inc.mapper.abs_pose_min_inlier_ratio = 0.15
     inc.mapper.filter_min_tri_angle = min_tri_angle / 4
     inc.mapper.ba_local_min_tri_angle = min_tri_angle / 4
     inc.triangulation.min_angle = min_tri_angle / 4
@@ -141,7 +168,6 @@ def run_sfm(
     *,
     peak_threshold: float = 0.002,
     min_tri_angle: float = 2.0,
-    num_threads: int = 2,
     seed: int = 0,
     attempts: int = 3,
 ) -> SfmReconstruction:
@@ -161,10 +187,11 @@ def run_sfm(
         Degrees; the initial pair needs this triangulation angle, and new points
         a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
         sweep at 1.2 m).
-    num_threads : int
     seed : int
+        Seeds COLMAP's random number generator; every stage runs on one
+        thread, so the same images give the same reconstruction.
     attempts : int
-        Incremental mapping is randomised (and multi-threaded): when a view
+        Incremental mapping is randomised: when a view
         stays unregistered it is rerun from the same matches with the next
         seed, up to this many times; the model with the most views is kept.
 
@@ -175,8 +202,12 @@ def run_sfm(
 
     Notes
     -----
-    Exhaustive matching: O(N^2) image pairs. About 2 s for 8 renders of
-    640 x 480 on 2 CPU cores.
+    SIFT with domain-size pooling first; when that leaves views unregistered,
+    plain SIFT as well, and the model with more views is kept (pooled
+    descriptors tell the squares of a checkered table apart; plain ones
+    register more on weakly textured views). Exhaustive matching: O(N^2)
+    image pairs. 5-30 s for 8 renders of 640 x 480 on one CPU core (every
+    stage runs single-threaded for reproducibility; ``bench_rgb_only.py``).
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -184,55 +215,75 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, num_threads, seed, attempts)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts)
     finally:
         pycolmap.logging.minloglevel = level
 
 
-def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, num_threads: int, seed: int, attempts: int) -> SfmReconstruction:
+def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
-    if hasattr(pycolmap, "set_random_seed"):
-        pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
-    ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, num_threads, seed, known)
     names = [f"{i:04d}.png" for i in range(n)]
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
         (root / "images").mkdir()
         for name, img in zip(names, images):
             cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
-        reader = pycolmap.ImageReaderOptions()
-        mode = pycolmap.CameraMode.SINGLE
-        if known:
-            assert K is not None
-            Ks = [np.asarray(k, np.float64) for k in K]
-            same = all(np.allclose(k, Ks[0]) for k in Ks)
-            mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
-            k0 = Ks[0]
-            reader.camera_model = "PINHOLE"
-            reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
-        else:
-            reader.camera_model = "SIMPLE_RADIAL"
-        db = root / "database.db"
-        pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
-        if known and mode == pycolmap.CameraMode.PER_IMAGE:
-            _set_per_image_cameras(pycolmap, db, names, Ks)
-        pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
+        # Domain-size pooling first: its descriptors tell the squares of a checkered
+        # table apart where plain SIFT's match the wrong square and give a wrong model
+        # (docs/results.md, round 5). On weakly textured views it finds fewer matches
+        # and can leave views unregistered; then plain SIFT runs too and the model
+        # with more registered views is kept (ties keep the pooled one).
         best = None
-        for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
-            out = root / f"sparse{attempt}"
-            out.mkdir()
-            inc.random_seed = seed + attempt
-            models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
-            if models:
-                rec = max(models.values(), key=lambda r: r.num_reg_images())
-                if best is None or rec.num_reg_images() > best.num_reg_images():
-                    best = rec
+        for pooling in (True, False):
+            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, pooling)
+            if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
+                best = rec
             if best is not None and best.num_reg_images() == n:
                 break
         if best is None:
             return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
         return _convert(best, names)
+
+
+def _map(pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None, known: bool, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, pooling: bool) -> Any:
+    """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
+    n = len(names)
+    if hasattr(pycolmap, "set_random_seed"):
+        pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
+    ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
+    tag = "dsp" if pooling else "sift"
+    reader = pycolmap.ImageReaderOptions()
+    mode = pycolmap.CameraMode.SINGLE
+    Ks: list[np.ndarray] = []
+    if known:
+        assert K is not None
+        Ks = [np.asarray(k, np.float64) for k in K]
+        same = all(np.allclose(k, Ks[0]) for k in Ks)
+        mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
+        k0 = Ks[0]
+        reader.camera_model = "PINHOLE"
+        reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
+    else:
+        reader.camera_model = "SIMPLE_RADIAL"
+    db = root / f"database-{tag}.db"
+    pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
+    if known and mode == pycolmap.CameraMode.PER_IMAGE:
+        _set_per_image_cameras(pycolmap, db, names, Ks)
+    pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
+    best = None
+    for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
+        out = root / f"sparse-{tag}{attempt}"
+        out.mkdir()
+        inc.random_seed = seed + attempt
+        models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
+        if models:
+            rec = max(models.values(), key=lambda r: r.num_reg_images())
+            if best is None or rec.num_reg_images() > best.num_reg_images():
+                best = rec
+        if best is not None and best.num_reg_images() == n:
+            break
+    return best
 
 
 def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
@@ -347,13 +398,41 @@ def _fill_view(points: np.ndarray, conf: np.ndarray, rgb: np.ndarray, T: np.ndar
     return p, c
 
 
+def _consistent(
+    pts: list[np.ndarray], conf: list[np.ndarray], rgb: list[np.ndarray], Ks: list[np.ndarray], poses: list[np.ndarray], neighbours: list[list[int]]
+) -> tuple[list[np.ndarray], list[np.ndarray], list[float]]:
+    """Stereo points checked against the other views (:func:`graphseg.backends.stereo.view_consistency`).
+
+    A point that no checking neighbour confirms is dropped (the fill then
+    decides that pixel); the confidence of the others is the fused stereo
+    agreement times the share of checking neighbours that confirm them.
+    Returns the new points, confidences and the dropped fraction per view.
+    """
+    from .stereo import view_consistency
+
+    agree, checked = view_consistency(pts, Ks, poses, neighbours, images=rgb)
+    out_p, out_c, dropped = [], [], []
+    for p, c, a, k in zip(pts, conf, agree, checked):
+        bad = (k > 0) & (a == 0)
+        p = p.copy()
+        p[bad] = np.nan
+        share = np.where(k > 0, a / np.maximum(k, 1), 0.5).astype(np.float32)  # unchecked: half confidence
+        out_p.append(p)
+        out_c.append(np.where(np.isfinite(p).all(-1), c * share, 0).astype(np.float32))
+        dropped.append(float(bad.mean()))
+    return out_p, out_c, dropped
+
+
 class SfmLifter:
     """The ``sfm`` lifter: SfM cameras + stereo / triangulated depth for RGB-only scenes.
 
     Parameters
     ----------
-    peak_threshold, min_tri_angle, num_threads :
+    peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
+    num_threads : int
+        Unused: COLMAP runs on one thread so that the same photos give the
+        same result (kept so that configurations naming it still load).
     stereo : bool
         Dense stereo where a neighbour is close (:func:`graphseg.backends.stereo.stereo_depths`).
     max_pair_angle : float
@@ -372,6 +451,14 @@ class SfmLifter:
         (:func:`graphseg.backends.densify.fill_depth_by_regions`.)
     fill_confidence : float
         Confidence of pixels that only the fill gave a point.
+    consistency : bool
+        Check every stereo point against the neighbour views (forward-backward
+        reprojection at the same depth and colour,
+        :func:`graphseg.backends.stereo.view_consistency`): points no neighbour
+        confirms are dropped before the fill, and the share that confirm
+        becomes part of the confidence. Off by default: on the tuning half of
+        ``bench_rgb_only.py`` it left the mean IoU unchanged (0.582) and cost
+        2-15 s per scene (``docs/results.md``).
     seed : int
     """
 
@@ -389,7 +476,9 @@ class SfmLifter:
         fill: bool | str = "planes",
         fill_confidence: float = 0.25,
         seed: int | None = 0,
+        consistency: bool = False,
     ) -> None:
+        self.consistency = consistency
         self.fill = fill
         self.fill_confidence = fill_confidence
         self.peak_threshold = peak_threshold
@@ -402,7 +491,7 @@ class SfmLifter:
         self.seed = 0 if seed is None else int(seed)
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
-        """SfM plus scale; raises :class:`SceneError` when a view does not register."""
+        """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
         n = len(scene)
         given = [v.K for v in scene.views]
         Ks = [np.asarray(k) for k in given if k is not None]
@@ -411,21 +500,37 @@ class SfmLifter:
             Ks if len(Ks) == len(given) else None,
             peak_threshold=self.peak_threshold,
             min_tri_angle=self.min_tri_angle,
-            num_threads=self.num_threads,
             seed=self.seed,
         )
-        if rec.num_registered < n or n < 2:
+        if rec.num_registered < 2 or n < 2:
             missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
             raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")
         return scale_reconstruction(rec, scene)
 
     def __call__(self, scene: Scene) -> Scene:
+        """The lifted scene of the registered views.
+
+        When structure from motion registers only ``k`` of ``n`` views (``k >= 2``),
+        the scene keeps the ``k`` registered views; ``meta["dropped_views"]`` names
+        the others and ``meta["warnings"]`` holds one line saying so.
+        """
         rec, scale = self.reconstruct(scene)
-        return self.point_maps(scene, rec, scale)
+        keep = np.flatnonzero(rec.registered)
+        dropped = [scene.views[i].name for i in range(len(scene)) if not rec.registered[i]]
+        if dropped:
+            scene, rec = scene.select(keep.tolist()), rec.select(keep)
+        lifted = self.point_maps(scene, rec, scale)
+        if dropped:
+            lifted.meta["dropped_views"] = dropped
+            lifted.meta["warnings"] = [
+                *lifted.meta.get("warnings", []),
+                f"structure from motion registered {len(keep)} of {len(keep) + len(dropped)} views; segmenting those {len(keep)}, without: {', '.join(dropped)}",
+            ]
+        return lifted
 
     def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
         """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
-        from .stereo import sparse_point_maps, stereo_depths
+        from .stereo import select_neighbours, sparse_point_maps, stereo_depths
 
         rgb = [v.rgb for v in scene.views]
         Ks = [np.asarray(k) for k in rec.K]
@@ -435,6 +540,8 @@ class SfmLifter:
         if self.stereo:
             ranges = _depth_ranges(rec)
             pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=self.max_pair_angle, max_neighbours=self.max_neighbours, depth_ranges=ranges)
+            if self.consistency:
+                pts, conf, info["inconsistent"] = _consistent(pts, conf, rgb, Ks, poses, select_neighbours(poses, max_angle=self.max_pair_angle, max_neighbours=self.max_neighbours))
         else:
             pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
             conf = [np.zeros((h, w), np.float32) for _ in rgb]

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["pair_points", "stereo_depths", "fuse_depths", "sparse_point_maps", "select_neighbours"]
+__all__ = ["pair_points", "stereo_depths", "fuse_depths", "sparse_point_maps", "select_neighbours", "view_consistency"]
 
 
 def _canon(img: np.ndarray, vertical: bool, flip: bool) -> np.ndarray:
@@ -334,6 +334,111 @@ def stereo_depths(
         pts.append((cam @ T[:3, :3].T + T[:3, 3]).astype(np.float32))
         conf.append(c)
     return pts, conf, {"pairs": len(pairs), "dense_fraction": [float(np.isfinite(p).all(-1).mean()) for p in pts]}
+
+
+def view_consistency(
+    points: Sequence[np.ndarray],
+    Ks: Sequence[np.ndarray],
+    poses: Sequence[np.ndarray],
+    neighbours: Sequence[Sequence[int]],
+    *,
+    images: Sequence[np.ndarray] | None = None,
+    rel_tolerance: float = 0.01,
+    pixel_tolerance: float = 1.0,
+    color_tolerance: float = 30.0,
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Multi-view geometric (and photometric) consistency of per-view point maps.
+
+    For every pixel ``p`` of view ``i`` with a point ``X``, and every neighbour
+    ``j``: ``X`` is projected into ``j``; the point ``j`` has there is projected
+    back into ``i``. The pair agrees when it lands within ``pixel_tolerance``
+    pixels of ``p`` at a depth within ``rel_tolerance`` of ``X``'s (the
+    forward-backward test of multi-view stereo fusion) and, with ``images``,
+    when the two pixels' colours (CIE Lab, summed absolute difference) differ
+    by at most ``color_tolerance``: a point bled across an object's border by
+    a stereo window lands on the object in the other view, whose colour is
+    not the table's.
+
+    Parameters
+    ----------
+    points : list of float ``[H, W, 3]``
+        World points per view (NaN = none).
+    Ks : list of ``[3, 3]``
+    poses : list of ``[4, 4]`` camera-to-world
+    neighbours : list of lists of int
+        The views each view is checked against (:func:`select_neighbours`).
+    images : list of uint8 ``[H, W, 3]``, optional, keyword-only
+        RGB images for the colour test (None: geometry only).
+    rel_tolerance, pixel_tolerance, color_tolerance : float, keyword-only
+
+    Returns
+    -------
+    agree : list of int32 ``[H, W]``
+        Neighbours that confirm each pixel.
+    checked : list of int32 ``[H, W]``
+        Neighbours that could (the point projects into them, where they have a point).
+
+    Notes
+    -----
+    O(H W) per (view, neighbour) pair.
+
+    Examples
+    --------
+    >>> K = np.array([[50.0, 0, 8], [0, 50, 8], [0, 0, 1]])
+    >>> T0, T1 = np.eye(4), np.eye(4); T1[0, 3] = 0.05
+    >>> u, v = np.meshgrid(np.arange(16.0), np.arange(16.0))
+    >>> wall = np.dstack([(u - 8) / 50, (v - 8) / 50, np.ones_like(u)]).astype(np.float32)   # z = 1, seen by camera 0
+    >>> wall1 = wall.copy(); wall1[..., 0] += 0.05                                        # the same wall from camera 1
+    >>> agree, checked = view_consistency([wall, wall1], [K, K], [T0, T1], [[1], [0]])
+    >>> int(agree[0][8, 8]), int(checked[0][8, 0])   # (8, 0) projects outside view 1: not checked
+    (1, 0)
+    """
+    import cv2
+
+    n = len(points)
+    flat_pts = [np.ascontiguousarray(np.asarray(p, np.float32).reshape(-1, 3)) for p in points]
+    labs = None
+    if images is not None:
+        labs = [cv2.cvtColor(cv2.GaussianBlur(np.ascontiguousarray(im), (3, 3), 0), cv2.COLOR_RGB2LAB).astype(np.int16).reshape(-1, 3) for im in images]
+    agree_out, checked_out = [], []
+    for i in range(n):
+        h, w = points[i].shape[:2]
+        idx = np.flatnonzero(np.isfinite(flat_pts[i]).all(1))
+        Pi = flat_pts[i][idx]
+        Ti = np.asarray(poses[i], np.float64)
+        # world -> camera i -> pixels of i, as one affine map of homogeneous world points
+        Mi = np.asarray(Ks[i], np.float64) @ Ti[:3, :3].T
+        bi = -Mi @ Ti[:3, 3]
+        Ri, ti = Ti[:3, :3].astype(np.float32), Ti[:3, 3].astype(np.float32)
+        zi = (Pi - ti) @ Ri[:, 2]
+        agree = np.zeros(h * w, np.int32)
+        checked = np.zeros(h * w, np.int32)
+        for j in neighbours[i]:
+            hj, wj = points[j].shape[:2]
+            Tj = np.asarray(poses[j], np.float64)
+            Mj = np.asarray(Ks[j], np.float64) @ Tj[:3, :3].T
+            uvj = Pi @ Mj.T.astype(np.float32) + (-Mj @ Tj[:3, 3]).astype(np.float32)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                uj = np.rint(uvj[:, 0] / uvj[:, 2])
+                vj = np.rint(uvj[:, 1] / uvj[:, 2])
+            sel = np.flatnonzero((uvj[:, 2] > 0) & (uj >= 0) & (uj < wj) & (vj >= 0) & (vj < hj))
+            fj = vj[sel].astype(np.int64) * wj + uj[sel].astype(np.int64)
+            Q = flat_pts[j][fj]
+            qok = np.isfinite(Q[:, 0])
+            sel, fj, Q = sel[qok], fj[qok], Q[qok]
+            uvb = Q @ Mi.T.astype(np.float32) + bi.astype(np.float32)
+            pix = idx[sel]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                du = uvb[:, 0] / uvb[:, 2] - (pix % w)
+                dv = uvb[:, 1] / uvb[:, 2] - (pix // w)
+            ok = (du * du + dv * dv <= pixel_tolerance**2) & (np.abs(uvb[:, 2] - zi[sel]) <= rel_tolerance * zi[sel])
+            if labs is not None:
+                ok &= np.abs(labs[i][pix] - labs[j][fj]).sum(1) <= color_tolerance
+            checked[pix] += 1
+            agree[pix[ok]] += 1
+        agree_out.append(agree.reshape(h, w))
+        checked_out.append(checked.reshape(h, w))
+    return agree_out, checked_out
 
 
 def sparse_point_maps(points: np.ndarray, observations: Sequence[tuple[np.ndarray, np.ndarray]], size: tuple[int, int], *, radius: int = 1) -> list[np.ndarray]:

@@ -40,6 +40,9 @@ __all__ = [
     "directed_chamfer",
     "remove_outliers",
     "chamfer_edges",
+    "point_spacing",
+    "spacing_aware_chamfer_edges",
+    "strongest_attachments",
     "Chamfer3D",
 ]
 
@@ -402,6 +405,130 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     )
 
 
+def point_spacing(sets: PointSets) -> np.ndarray:
+    """Median nearest-neighbour distance within each node's point set ``[N]`` (NaN with < 2 points).
+
+    Examples
+    --------
+    >>> s = point_spacing(PointSets(np.array([[0.0, 0, 0], [0.1, 0, 0], [0.3, 0, 0]]), np.array([0, 3, 3])))
+    >>> np.round(s, 3).tolist()[0], bool(np.isnan(s[1]))
+    (0.1, True)
+
+    Notes
+    -----
+    One k-d tree per node: O(P log P) in total.
+    """
+    out = np.full(sets.num_nodes, np.nan)
+    for k in range(sets.num_nodes):
+        x = sets[k]
+        if len(x) >= 2:
+            d, _ = cKDTree(x).query(x, k=2)
+            out[k] = float(np.median(d[:, 1]))
+    return out
+
+
+def spacing_aware_chamfer_edges(sets: PointSets, tau: float = 5e-5, *, factor: float = 1.5, prune: bool = True) -> EdgeSet:
+    """:func:`chamfer_edges` with the per-pair threshold ``max(tau, (factor * max(s_i, s_j))^2)``.
+
+    Two independent samplings of one surface are not point-to-point aligned:
+    for random samples with median nearest-neighbour spacing ``s`` the directed
+    Chamfer distance is about ``1.44 s^2`` even when the surfaces coincide, so
+    sparse sets (structure from motion, ``s`` of centimetres) would fail every
+    test. ``s_k`` is :func:`point_spacing`; for dense sets this is exactly
+    :func:`chamfer_edges`.
+
+    Parameters
+    ----------
+    sets : PointSets
+    tau : float
+        The floor (the dense-point threshold).
+    factor : float
+        Multiple of the spacing allowed as RMS nearest-neighbour distance
+        (1.5: random samplings of one surface give about 1.2 s).
+    prune : bool
+        As in :func:`chamfer_edges`.
+
+    Returns
+    -------
+    EdgeSet
+        As :func:`chamfer_edges`, plus the column ``tau`` (the threshold each edge met).
+
+    Examples
+    --------
+    >>> a = np.c_[np.arange(0, 1, 0.1), np.zeros(10), np.zeros(10)]      # spacing 0.1
+    >>> sets = PointSets(np.r_[a, a + [0.05, 0, 0]], np.array([0, 10, 20]))
+    >>> chamfer_edges(sets, 1e-4).num_edges, spacing_aware_chamfer_edges(sets, 1e-4).num_edges
+    (0, 1)
+    """
+    if not tau > 0 or not factor >= 0:
+        raise ValueError(f"expected tau > 0 and factor >= 0 (got {tau}, {factor})")
+    s = np.nan_to_num(point_spacing(sets), nan=0.0)
+    node_tau = np.maximum(tau, (factor * s) ** 2)
+    es = chamfer_edges(sets, float(node_tau.max()) if node_tau.size else tau, prune=prune)
+    i, j = es.edge_index
+    pair_tau = np.maximum(node_tau[i], node_tau[j]) if i.size else np.zeros(0)
+    keep = es.edge_attr["distance"] <= pair_tau
+    attr = {k: v[keep] for k, v in es.edge_attr.items()}
+    attr["weight"] = 1.0 / (1.0 + attr["distance"] / pair_tau[keep]) if keep.any() else np.zeros(0)
+    attr["tau"] = pair_tau[keep]
+    return EdgeSet(es.edge_index[:, keep], attr, {**es.info, "tau": tau, "factor": factor})
+
+
+def strongest_attachments(edge_index: np.ndarray, weight: np.ndarray, size: np.ndarray, ratio: float) -> np.ndarray:
+    """Which edges to keep so that a fragment joins at most one larger node.
+
+    An edge is an *attachment* of its smaller end when that end has less than
+    ``ratio`` of the other end's size; among its attachments a node keeps only
+    the strongest (largest ``weight``; ties: the first). Edges between nodes of
+    comparable size are all kept. A small node near two objects thus attaches
+    to the closer one instead of bridging them.
+
+    Parameters
+    ----------
+    edge_index : int ``[2, E]``
+    weight : float ``[E]``
+        Strength, larger = stronger.
+    size : float ``[N]``
+        Node size (pixels or points).
+    ratio : float
+        In ``(0, 1]``.
+
+    Returns
+    -------
+    bool ``[E]``
+
+    Notes
+    -----
+    O(E log E).
+
+    Examples
+    --------
+    >>> ei = np.array([[0, 0, 1], [1, 2, 2]])         # fragment 0 next to objects 1 and 2
+    >>> strongest_attachments(ei, np.array([0.9, 0.5, 0.7]), np.array([10, 500, 400]), 0.25).tolist()
+    [True, False, True]
+    """
+    ei = np.asarray(edge_index, np.int64).reshape(2, -1)
+    w = np.asarray(weight, np.float64).reshape(-1)
+    sz = np.asarray(size, np.float64).reshape(-1)
+    if w.shape != (ei.shape[1],):
+        raise ValueError(f"expected weight of shape [{ei.shape[1]}] (got {list(w.shape)})")
+    if not 0 < ratio <= 1:
+        raise ValueError(f"expected ratio in (0, 1] (got {ratio})")
+    keep = np.ones(ei.shape[1], bool)
+    if ei.shape[1] == 0:
+        return keep
+    a, b = sz[ei[0]], sz[ei[1]]
+    small = np.where(a <= b, ei[0], ei[1])
+    attach = np.minimum(a, b) < ratio * np.maximum(a, b)
+    idx = np.flatnonzero(attach)
+    if idx.size:
+        order = idx[np.lexsort((-w[idx], small[idx]))]
+        first = np.ones(order.size, bool)
+        first[1:] = small[order][1:] != small[order][:-1]
+        keep[order[~first]] = False
+    return keep
+
+
 class Chamfer3D(Criterion):
     """The ``chamfer_3d`` criterion: gathers node points, downsamples, cleans, tests.
 
@@ -411,6 +538,18 @@ class Chamfer3D(Criterion):
     ``outliers`` (None, ``"statistical"`` or ``"dbscan"``, with
     ``outlier_k``/``outlier_std_ratio`` and ``dbscan_eps``/``dbscan_min_samples``)
     and ``prune`` (bounding-box pruning, see :func:`chamfer_edges`).
+
+    For lifted points (structure from motion, a learned lifter) three options
+    make the test tolerate them; all are off by default:
+
+    * ``min_confidence``: points whose confidence (``Evidence.confidence``;
+      views without one keep every point) is below it are ignored;
+    * ``spacing_factor``: each pair's threshold grows with the point spacing,
+      ``max(tau, (spacing_factor * max(s_i, s_j))^2)``
+      (:func:`spacing_aware_chamfer_edges`);
+    * ``fragment_ratio``: a node smaller than this share of a node it would
+      join keeps only its strongest such edge (:func:`strongest_attachments`),
+      so noisy fragments between two objects join one, never bridge both.
 
     Examples
     --------
@@ -434,9 +573,14 @@ class Chamfer3D(Criterion):
         dbscan_eps: float = Field(0.02, gt=0, description="dbscan: neighbourhood radius (metres)")
         dbscan_min_samples: int = Field(5, ge=1)
         prune: bool = True
+        min_confidence: float | None = Field(None, ge=0, description="ignore points whose confidence is below this (None: use every point)")
+        spacing_factor: float | None = Field(None, ge=0, description="per-pair threshold max(tau, (spacing_factor * point spacing)^2) (None: tau alone)")
+        fragment_ratio: float | None = Field(
+            None, gt=0, le=1, description="a node below this share of the area of a node it would join keeps only its strongest such edge (None: keep all)"
+        )
 
     name = "chamfer_3d"
-    requires = frozenset({"points"})
+    requires = frozenset({"points", "confidence"})
     reduce = {"distance": "min", "weight": "max"}
     tags = {"dimension": "3d"}
     options: Chamfer3D.Options
@@ -446,10 +590,28 @@ class Chamfer3D(Criterion):
         if evidence.points is None:
             raise ValueError("chamfer_3d needs world points (Evidence.points)")
         o = self.options
-        sets = node_point_sets(evidence.node_labels, evidence.points, graph.num_nodes, stride=o.stride, voxel_size=o.voxel_size)
+        points: list[np.ndarray | None] = list(evidence.points)
+        if o.min_confidence is not None and evidence.confidence is not None:
+            t = float(o.min_confidence)
+            for v, c in enumerate(evidence.confidence):
+                if c is not None:  # unsure points become invalid (NaN); a view without confidence keeps all
+                    p = np.array(points[v], np.float32)  # a copy: the evidence is never changed
+                    p[np.asarray(c) < t] = np.nan
+                    points[v] = p
+        sets = node_point_sets(evidence.node_labels, points, graph.num_nodes, stride=o.stride, voxel_size=o.voxel_size)
         return remove_outliers(
             sets, o.outliers, k=o.outlier_k, std_ratio=o.outlier_std_ratio, eps=o.dbscan_eps, min_samples=o.dbscan_min_samples
         )
 
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
-        return chamfer_edges(self.point_sets(graph, evidence), self.options.tau, prune=self.options.prune)
+        o = self.options
+        sets = self.point_sets(graph, evidence)
+        if o.spacing_factor is not None:
+            es = spacing_aware_chamfer_edges(sets, o.tau, factor=o.spacing_factor, prune=o.prune)
+        else:
+            es = chamfer_edges(sets, o.tau, prune=o.prune)
+        if o.fragment_ratio is not None and es.num_edges:
+            size = np.asarray(graph.node_attr["area"], np.float64) if "area" in graph.node_attr else sets.sizes().astype(np.float64)
+            keep = strongest_attachments(es.edge_index, es.edge_attr["weight"], size, o.fragment_ratio)
+            es = EdgeSet(es.edge_index[:, keep], {k: v[keep] for k, v in es.edge_attr.items()}, {**es.info, "detached": int((~keep).sum())})
+        return es

@@ -165,7 +165,7 @@ def criterion_info(cls: Any, name: str | None = None) -> CriterionInfo:
     >>> from graphseg.graphs.chamfer import Chamfer3D
     >>> info = criterion_info(Chamfer3D)
     >>> sorted(info.requires), info.dimension, info.reduce["distance"]
-    (['points'], '3d', 'min')
+    (['confidence', 'points'], '3d', 'min')
     """
     label = name or getattr(cls, "name", None) or getattr(cls, "__name__", type(cls).__name__)
     opts = getattr(cls, "Options", None)
@@ -253,7 +253,7 @@ def validate_options(options_model: type[BaseModel] | None, options: Mapping[str
     >>> validate_options(Chamfer3D.Options, {"tua": 1e-4}, label="chamfer_3d")
     Traceback (most recent call last):
     ...
-    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: unknown option 'tua'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune; did you mean 'tau'?
+    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: unknown option 'tua'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune, min_confidence, spacing_factor, fragment_ratio; did you mean 'tau'?
     >>> validate_options(Chamfer3D.Options, {"tau": float("inf")}, label="chamfer_3d")
     Traceback (most recent call last):
     ...

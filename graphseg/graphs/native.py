@@ -245,11 +245,27 @@ def save_native(
     path = os.fspath(path)
     tmp = f"{path}.tmp-{os.getpid()}.npz"
     try:
-        np.savez_compressed(tmp, **store)  # type: ignore[arg-type]
+        _savez_reproducible(tmp, store)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.remove(tmp)
+
+
+def _savez_reproducible(path: str, arrays: dict[str, np.ndarray]) -> None:
+    """``np.savez_compressed`` with a fixed timestamp on every entry: the same arrays give the same bytes.
+
+    (numpy stamps each entry with the current time, so two identical results
+    written a second apart would differ.)
+    """
+    import zipfile
+
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
+        for key, arr in arrays.items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            with zf.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.asanyarray(arr), allow_pickle=False)
 
 
 def load_native(path: str | PathLike[str]) -> NativeFile:

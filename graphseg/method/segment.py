@@ -42,7 +42,7 @@ from ..scene import Matches, Scene, SceneError
 from .background import background_masks
 from .masks import compose_masks, paint_masks
 
-__all__ = ["segment", "object_support", "apply_min_support", "MasksLike"]
+__all__ = ["segment", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
 MasksLike = Sequence[Any]
 
@@ -141,10 +141,155 @@ def object_support(labels: Sequence[np.ndarray], points: Sequence[np.ndarray], n
     return views, count
 
 
+def confirming_views(
+    pts: np.ndarray,
+    view: int,
+    points: Sequence[np.ndarray],
+    cameras: Sequence[tuple[np.ndarray, np.ndarray]],
+    foreground: Sequence[np.ndarray],
+    *,
+    tolerance: float = 0.03,
+    min_share: float = 0.3,
+) -> int:
+    """How many other views see the world points ``pts`` of one view's object where they are.
+
+    A view confirms them when at least ``min_share`` of the points that project
+    into its image land on a foreground pixel whose own point lies at the same
+    depth (within ``tolerance`` of the depth, a relative test that holds at any
+    scale). An object cut from one view only, whose points no other view sees
+    there (a floor tile lifted to the wrong depth), is confirmed by none; one
+    that the graph left unmerged but that the other views see is confirmed.
+
+    Parameters
+    ----------
+    pts : float ``[P, 3]``
+        World points of the object in view ``view``.
+    view : int
+        The view they come from (not counted).
+    points : list of float ``[H, W, 3]``
+        World point maps of every view.
+    cameras : list of (K ``[3, 3]``, cam_to_world ``[4, 4]``)
+    foreground : list of bool ``[H, W]``
+        Pixels with a valid point that are not background.
+    tolerance, min_share : float, keyword-only
+
+    Returns
+    -------
+    int
+        The number of confirming views.
+
+    Notes
+    -----
+    O(P) per view.
+
+    Examples
+    --------
+    >>> K = np.array([[10.0, 0, 2], [0, 10, 2], [0, 0, 1]])
+    >>> pm = np.zeros((5, 5, 3)); pm[..., 2] = 1.0          # a wall at z = 1 seen by camera 1
+    >>> cams = [(K, np.eye(4)), (K, np.eye(4))]
+    >>> fg = [np.ones((5, 5), bool)] * 2
+    >>> confirming_views(np.array([[0.0, 0, 1.0]]), 0, [pm, pm], cams, fg)
+    1
+    >>> confirming_views(np.array([[0.0, 0, 0.5]]), 0, [pm, pm], cams, fg)   # floats in front of it
+    0
+    """
+    return confirming_labels(pts, view, points, cameras, foreground, None, tolerance=tolerance, min_share=min_share)[0]
+
+
+def confirming_labels(
+    pts: np.ndarray,
+    view: int,
+    points: Sequence[np.ndarray],
+    cameras: Sequence[tuple[np.ndarray, np.ndarray]],
+    foreground: Sequence[np.ndarray],
+    labels: Sequence[np.ndarray] | None,
+    *,
+    tolerance: float = 0.03,
+    min_share: float = 0.3,
+) -> tuple[int, dict[int, int]]:
+    """:func:`confirming_views`, and the object ids the confirming views give those points.
+
+    Parameters
+    ----------
+    pts, view, points, cameras, foreground, tolerance, min_share
+        As in :func:`confirming_views`.
+    labels : list of int ``[H, W]`` or None
+        Object ids per view (0 = none); None counts views only.
+
+    Returns
+    -------
+    views : int
+        The number of confirming views.
+    ids : dict
+        ``{object id: pixels}`` over the confirmed pixels of the confirming
+        views (empty without ``labels``).
+
+    Examples
+    --------
+    >>> K = np.array([[10.0, 0, 2], [0, 10, 2], [0, 0, 1]])
+    >>> pm = np.zeros((5, 5, 3)); pm[..., 2] = 1.0
+    >>> lab = [np.zeros((5, 5), int), np.full((5, 5), 7)]
+    >>> confirming_labels(np.array([[0.0, 0, 1.0]]), 0, [pm, pm], [(K, np.eye(4))] * 2, [np.ones((5, 5), bool)] * 2, lab)
+    (1, {7: 1})
+    """
+    out = 0
+    ids: dict[int, int] = {}
+    P = np.asarray(pts, np.float64)
+    for w, ((K, T), pm, fg) in enumerate(zip(cameras, points, foreground)):
+        if w == view or K is None or T is None or len(P) == 0:
+            continue
+        T = np.asarray(T, np.float64)
+        cam = (P - T[:3, 3]) @ T[:3, :3]
+        z = cam[:, 2]
+        front = z > 0
+        if not front.any():
+            continue
+        uvw = cam[front] @ np.asarray(K, np.float64).T
+        u = np.rint(uvw[:, 0] / uvw[:, 2]).astype(np.int64)
+        v = np.rint(uvw[:, 1] / uvw[:, 2]).astype(np.int64)
+        h, wd = fg.shape
+        inside = (u >= 0) & (u < wd) & (v >= 0) & (v < h)
+        if not inside.any():
+            continue
+        u, v, zf = u[inside], v[inside], z[front][inside]
+        q = np.asarray(pm[v, u], np.float64)
+        zq = (q - T[:3, 3]) @ T[:3, :3][:, 2]
+        ok = fg[v, u] & (np.abs(zq - zf) <= tolerance * zf)
+        if ok.mean() >= min_share:
+            out += 1
+            if labels is not None:
+                for i, c in zip(*np.unique(np.asarray(labels[w])[v[ok], u[ok]], return_counts=True)):
+                    ids[int(i)] = ids.get(int(i), 0) + int(c)
+    return out, ids
+
+
 def apply_min_support(
-    obj: np.ndarray, labels: Sequence[np.ndarray], points: Sequence[np.ndarray], min_views: int, min_points: int
+    obj: np.ndarray,
+    labels: Sequence[np.ndarray],
+    points: Sequence[np.ndarray],
+    min_views: int,
+    min_points: int,
+    *,
+    cameras: Sequence[tuple[Any, Any]] | None = None,
+    foreground: Sequence[np.ndarray] | None = None,
+    min_confirm: int = 0,
+    mask_view: np.ndarray | None = None,
+    merge: bool = False,
+    sample: int = 2000,
 ) -> tuple[np.ndarray, list[np.ndarray], dict[str, Any]]:
     """Objects below the minimum support become background; the rest are renumbered ``1..K``.
+
+    An object counts the views it has pixels in; one with fewer than
+    ``min_views`` and at least ``min_confirm`` valid points also counts the
+    views that see its points where they are (:func:`confirming_views`, when
+    ``cameras`` and ``foreground`` are given), so an object the graph left in
+    one view is kept when the other views see it. With ``merge``, when the
+    pixels that confirm it carry, in more than half of the cases, one other
+    object with full support, it joins that object instead (the graph missed
+    the edge, for example because one view's estimated pose or points were a
+    little off).
+    Small fragments next to an object are not confirmed: a depth halo around
+    the object in another view would confirm them.
 
     Parameters
     ----------
@@ -157,6 +302,19 @@ def apply_min_support(
         Views and valid points an object needs (see
         :class:`graphseg.config.ObjectConfig`); ``min_views`` is capped at the
         number of views.
+    cameras : list of (K, cam_to_world), optional, keyword-only
+    foreground : list of bool ``[H, W]``, optional, keyword-only
+    min_confirm : int, keyword-only
+        Valid points an object needs before other views may confirm it.
+    mask_view : int64 ``[M]``, optional, keyword-only
+        The view of every mask. With it (and ``cameras``), a dropped fragment
+        that continues a kept object across its border in the image
+        (:func:`fragment_neighbours`) is given to that object instead of the
+        background: a piece the segmenter cut off an object stays with it.
+    merge : bool, keyword-only
+        Let a confirmed one-view object join the object the confirming views see there.
+    sample : int, keyword-only
+        At most this many points per view enter the confirmation test (evenly strided).
 
     Returns
     -------
@@ -165,8 +323,12 @@ def apply_min_support(
     labels : list of int32 ``[H, W]``
         New label images (new arrays; the inputs are not modified).
     support : dict
-        ``min_views`` (as applied), ``min_points``, ``dropped`` (how many) and
-        ``dropped_objects``: ``{"views", "points"}`` per dropped object.
+        ``min_views`` (as applied), ``min_points``, ``confirmed`` (objects kept by
+        views that see them, merged ones included), ``dropped`` (how many),
+        ``absorbed`` (fragments given to the object they continue, per view),
+        ``merged`` (confirmed objects that joined the object the other views
+        see there) and ``dropped_objects``:
+        ``{"views", "points"}`` per dropped object.
 
     Examples
     --------
@@ -179,17 +341,132 @@ def apply_min_support(
     num = int(obj.max()) if obj.size else 0
     need_views = min(int(min_views), len(labels))
     views, count = object_support(labels, points, num)
-    keep = (views >= need_views) & (count >= int(min_points))
+    seen = views.copy()
+    confirmed = 0
+    part_of = np.zeros(num, np.int64)  # 1-based object that the confirming views see in place of this one
+    if cameras is not None and foreground is not None and all(K is not None and T is not None for K, T in cameras):
+        for k in np.flatnonzero((views < need_views) & (count >= max(int(min_points), int(min_confirm)))):
+            ids: dict[int, int] = {}
+            for v, (lab, pm) in enumerate(zip(labels, points)):
+                sel = np.flatnonzero((np.asarray(lab) == k + 1).ravel())
+                if sel.size == 0:
+                    continue
+                pts = np.asarray(pm).reshape(-1, 3)[sel[:: max(1, sel.size // sample)]]
+                pts = pts[np.isfinite(pts).all(1)]
+                n, seen_ids = confirming_labels(pts, v, points, cameras, foreground, labels)
+                seen[k] += n
+                for i, c in seen_ids.items():
+                    ids[i] = ids.get(i, 0) + c
+            if seen[k] < need_views:
+                continue
+            confirmed += 1
+            # The other views see these points as part of one object with full support:
+            # the graph missed that edge (one view's pose or points were off), so the
+            # fragment joins it instead of standing as an object of its own.
+            total = sum(c for i, c in ids.items() if i > 0)
+            best = max((i for i in ids if i > 0 and i != k + 1), key=lambda i: ids[i], default=0)
+            if merge and best and 2 * ids[best] > total and views[best - 1] >= need_views:
+                part_of[k] = best
+    keep = (seen >= need_views) & (count >= int(min_points)) & (part_of == 0)
     remap = np.zeros(num + 1, np.int64)
     remap[1:][keep] = np.arange(1, int(keep.sum()) + 1)
+    merged = np.flatnonzero(part_of > 0)
+    remap[merged + 1] = remap[part_of[merged]]
+    new_obj = remap[np.asarray(obj, np.int64)]
+    new_labels = [remap[np.asarray(lab, np.int64)].astype(np.int32) for lab in labels]
+    absorbed = 0
+    placed = keep | (part_of > 0)
+    if mask_view is not None and cameras is not None and all(T is not None for _, T in cameras) and (~placed).any():
+        for v, (lab, pm, (_, T)) in enumerate(zip(labels, points, cameras)):
+            into = fragment_neighbours(np.asarray(lab), np.asarray(pm), np.asarray(T)[:3, 3], placed)
+            if not into:
+                continue
+            for frag, c in into.items():  # fragment frag (1-based, dropped) continues object c (1-based, kept)
+                new_labels[v][np.asarray(lab) == frag] = remap[c]
+                sel = (np.asarray(mask_view) == v) & (np.asarray(obj) == frag)
+                new_obj[sel] = remap[c]
+                absorbed += 1
     info: dict[str, Any] = {
         "min_views": need_views,
         "min_points": int(min_points),
-        "dropped": int((~keep).sum()),
-        "dropped_objects": [{"views": int(v), "points": int(c)} for v, c in zip(views[~keep], count[~keep])],
+        "confirmed": confirmed,
+        "dropped": int((~placed).sum()),
+        "absorbed": absorbed,
+        "merged": int(merged.size),
+        "dropped_objects": [{"views": int(v), "points": int(c)} for v, c in zip(views[~placed], count[~placed])],
     }
-    new_labels = [remap[np.asarray(lab, np.int64)].astype(np.int32) for lab in labels]
-    return remap[np.asarray(obj, np.int64)], new_labels, info
+    return new_obj, new_labels, info
+
+
+def fragment_neighbours(labels: np.ndarray, points: np.ndarray, center: np.ndarray, keep: np.ndarray, *, tolerance: float = 0.03, min_pairs: int = 3) -> dict[int, int]:
+    """Which kept object each dropped fragment of one view continues, if any.
+
+    A fragment continues object ``c`` when it touches ``c`` in the image
+    (4-neighbour pixel pairs) and the surface runs on across that border: the
+    two points of at least half of those pairs (and ``min_pairs``) lie within
+    ``tolerance`` of their distance to the camera of each other. Of several
+    such objects it continues the one with the most such pairs. A fragment cut
+    off an object by the segmenter goes back to it; a floor tile or a fragment
+    across a depth step does not.
+
+    Parameters
+    ----------
+    labels : int ``[H, W]``
+        Object ids before the support rule (0 = none).
+    points : float ``[H, W, 3]``
+        World points of the view.
+    center : float ``[3]``
+        The view's camera centre.
+    keep : bool ``[K]``
+        ``keep[k - 1]``: object ``k`` meets the minimum support.
+    tolerance : float, keyword-only
+        Relative distance between neighbouring points (a scale-free test).
+    min_pairs : int, keyword-only
+
+    Returns
+    -------
+    dict
+        Fragment id -> object id (both 1-based, before renumbering).
+
+    Notes
+    -----
+    O(H W).
+
+    Examples
+    --------
+    >>> lab = np.array([[1, 1, 2, 2, 0, 3]])
+    >>> pts = np.zeros((1, 6, 3)); pts[..., 2] = 1.0; pts[0, 5, 2] = 3.0   # 3 lies far behind
+    >>> pts[..., 0] = np.arange(6) * 0.001
+    >>> fragment_neighbours(lab, pts, np.zeros(3), np.array([True, False, False]), min_pairs=1)
+    {2: 1}
+    """
+    lab = np.asarray(labels, np.int64)
+    pts = np.asarray(points, np.float64)
+    k = len(keep)
+    kept = np.zeros(k + 1, bool)
+    kept[1:] = keep
+    dropped = np.zeros(k + 1, bool)
+    dropped[1:] = ~keep
+    total = np.zeros((k + 1, k + 1), np.int64)
+    good = np.zeros((k + 1, k + 1), np.int64)
+    for a_sl, b_sl in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))), ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
+        la, lb = lab[a_sl].ravel(), lab[b_sl].ravel()
+        for frag, other, pf, po in ((la, lb, pts[a_sl], pts[b_sl]), (lb, la, pts[b_sl], pts[a_sl])):
+            sel = np.flatnonzero(dropped[frag] & kept[other])
+            if sel.size == 0:
+                continue
+            p, q = pf.reshape(-1, 3)[sel], po.reshape(-1, 3)[sel]
+            with np.errstate(invalid="ignore"):
+                near = np.linalg.norm(p - q, axis=1) <= tolerance * np.linalg.norm(p - center, axis=1)
+            np.add.at(total, (frag[sel], other[sel]), 1)
+            np.add.at(good, (frag[sel], other[sel]), near.astype(np.int64))
+    out: dict[int, int] = {}
+    for f in np.flatnonzero(dropped):
+        row = good[f]
+        c = int(np.argmax(row))
+        if row[c] >= min_pairs and 2 * row[c] >= total[f, c]:
+            out[int(f)] = c
+    return out
 
 
 def _degenerate_warnings(scene: Scene, graph: CorrespondenceGraph, num_objects: int) -> list[str]:
@@ -339,8 +616,22 @@ def segment(
     mem = current.members
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
     out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
-    min_points = int(np.ceil(cfg.objects.min_point_fraction * scene.views[0].shape[0] * scene.views[0].shape[1])) if scene.num_views else 0
-    obj, out_labels, support = apply_min_support(obj, out_labels, points, cfg.objects.min_views, min_points)
+    pixels = scene.views[0].shape[0] * scene.views[0].shape[1] if scene.num_views else 0
+    min_points = int(np.ceil(cfg.objects.min_point_fraction * pixels))
+    cameras = [(v.K, v.cam_to_world) for v in scene.views]
+    foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(points, bg)]
+    obj, out_labels, support = apply_min_support(
+        obj,
+        out_labels,
+        points,
+        cfg.objects.min_views,
+        min_points,
+        cameras=cameras,
+        foreground=foreground,
+        min_confirm=int(np.ceil(cfg.objects.confirm_fraction * pixels)),
+        mask_view=mem["view"],
+        merge=cfg.objects.merge_seen,
+    )
     num_objects = int(obj.max()) if obj.size else 0
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
         col = np.zeros(g.num_nodes, np.int64)

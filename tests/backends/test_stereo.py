@@ -85,3 +85,48 @@ def test_pair_points_on_a_rendered_narrow_pair():
     both = np.isfinite(q1[..., 2]) & np.isfinite(p1[..., 2])
     assert both.mean() > 0.15
     assert np.median(np.abs(q1[..., 2][both] - p1[..., 2][both])) < 1e-3
+
+
+def _two_views_of_a_wall():
+    """Camera 0 at the origin and camera 1 5 cm to its right, both looking at the wall z = 1."""
+    K = np.array([[50.0, 0, 16], [0, 50, 12], [0, 0, 1]])
+    T0, T1 = np.eye(4), np.eye(4)
+    T1[0, 3] = 0.05
+    u, v = np.meshgrid(np.arange(32.0), np.arange(24.0))
+    wall0 = np.dstack([(u - 16) / 50, (v - 12) / 50, np.ones_like(u)]).astype(np.float32)
+    wall1 = wall0.copy()
+    wall1[..., 0] += 0.05  # camera 1's pixels see the wall 5 cm further right
+    return K, [T0, T1], [wall0, wall1]
+
+
+def test_view_consistency_finds_points_bled_off_their_depth():
+    """A stereo window bleeds an object's depth onto the table next to it: those points lie off the
+    surface that the other view sees there, so no neighbour confirms them."""
+    from graphseg.backends.stereo import view_consistency
+
+    K, poses, walls = _two_views_of_a_wall()
+    bled = walls[0].copy()
+    bled[5:10, 10:20] *= 0.9  # 10% too close
+    agree, checked = view_consistency([bled, walls[1]], [K, K], poses, [[1], [0]])
+    assert agree[0].shape == (24, 32) and agree[0].dtype == np.int32
+    inside = checked[0] > 0
+    assert inside[12, 16] and not inside[12, 0]  # column 0 projects off view 1's left edge
+    assert (agree[0][5:10, 10:20] == 0).all()
+    ok = inside.copy()
+    ok[5:10, 10:20] = False
+    assert (agree[0][ok] == 1).all()
+
+
+def test_view_consistency_colour_test():
+    from graphseg.backends.stereo import view_consistency
+
+    K, poses, walls = _two_views_of_a_wall()
+    grey = np.full((24, 32, 3), 120, np.uint8)
+    red = grey.copy()
+    red[:, :, 0] = 250  # view 1 sees another colour everywhere
+    agree, checked = view_consistency(walls, [K, K], poses, [[1], [0]], images=[grey, red])
+    assert checked[0].sum() > 0 and agree[0].sum() == 0
+    agree, _ = view_consistency(walls, [K, K], poses, [[1], [0]], images=[grey, grey])
+    assert (agree[0] == checked[0]).all()
+    empty, none = view_consistency(walls, [K, K], poses, [[], []])
+    assert not empty[0].any() and not none[0].any()  # no neighbour: nothing checked

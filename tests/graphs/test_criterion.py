@@ -32,7 +32,7 @@ class Ring(Criterion):
 
 
 def test_builtins_declare_the_contract():
-    for cls, dim, req in ((PixelMatch, "2d", {"matches", "points"}), (Chamfer3D, "3d", {"points"}), (FeatureSimilarity, "2d", {"features"})):
+    for cls, dim, req in ((PixelMatch, "2d", {"matches", "points"}), (Chamfer3D, "3d", {"points", "confidence"}), (FeatureSimilarity, "2d", {"features"})):
         info = criterion_info(cls)
         assert info.dimension == dim and info.requires == req and info.Options is cls.Options
         assert info.Options.model_config.get("extra") == "forbid"

@@ -266,3 +266,66 @@ def test_batched_directed_centroid_prefilter_is_exact():
         assert np.array_equal(plain <= tau, fast <= tau)
         assert np.array_equal(plain[plain <= tau], fast[fast <= tau])
     assert _batched_directed(sets, src[:0], dst[:0], 5e-4, centroids=cen, boxes=(lo, hi)).shape == (0,)
+
+
+def test_strongest_attachments_hand_computed():
+    from graphseg.graphs.chamfer import strongest_attachments
+
+    # node 0 (10 px) touches objects 1 (500) and 2 (400); 1 and 2 are peers; 3 (300) is a peer of 2
+    ei = np.array([[0, 0, 1, 2], [1, 2, 2, 3]])
+    keep = strongest_attachments(ei, np.array([0.9, 0.5, 0.2, 0.1]), np.array([10, 500, 400, 300]), 0.25)
+    assert keep.tolist() == [True, False, True, True]  # 0 keeps only its stronger attachment
+    keep = strongest_attachments(ei, np.array([0.5, 0.9, 0.2, 0.1]), np.array([10, 500, 400, 300]), 0.25)
+    assert keep.tolist() == [False, True, True, True]
+    tie = strongest_attachments(np.array([[0, 0], [1, 2]]), np.array([0.5, 0.5]), np.array([1, 9, 9]), 0.5)
+    assert tie.tolist() == [True, False]  # ties: the first edge
+    assert strongest_attachments(np.zeros((2, 0), np.int64), np.zeros(0), np.ones(3), 0.5).shape == (0,)
+    with pytest.raises(ValueError, match=r"ratio in \(0, 1\]"):
+        strongest_attachments(ei, np.ones(4), np.ones(4), 0.0)
+    with pytest.raises(ValueError, match=r"weight of shape \[4\]"):
+        strongest_attachments(ei, np.ones(3), np.ones(4), 0.5)
+
+
+def _fragment_between_two_boxes():
+    """Box faces A (x <= 0.095) and B (x >= 0.125), 3 cm apart; a fragment F in the gap whose
+    directed Chamfer distance to either is 2.5e-4 (its columns lie 1 and 2 cm from each)."""
+    ga, gb = np.mgrid[0:20, 0:20] * 0.005
+    a = np.stack([ga.ravel(), gb.ravel(), np.zeros(400)], 1)
+    b = a + [0.125, 0, 0]
+    f = np.array([[x, y, 0.0] for x in (0.105, 0.115) for y in (0.04, 0.045, 0.05, 0.055)])
+    pts = np.concatenate([a, b, f]).astype(np.float32)[None]
+    lab = np.array([[0] * 400 + [1] * 400 + [2] * 8])
+    return CorrespondenceGraph(3, node_attr={"area": [400, 400, 8]}), Evidence([lab], points=[pts])
+
+
+def test_chamfer_fragment_ratio_keeps_a_fragment_from_bridging():
+    """Before ``fragment_ratio`` the fragment had an edge to both boxes, and contraction merged them."""
+    g, ev = _fragment_between_two_boxes()
+    plain = Chamfer3D(tau=3e-4, voxel_size=None, stride=1)(g, ev)
+    assert sorted(map(tuple, plain.edge_index.T.tolist())) == [(0, 2), (1, 2)]
+    es = Chamfer3D(tau=3e-4, voxel_size=None, stride=1, fragment_ratio=0.25)(g, ev)
+    assert es.num_edges == 1 and es.info["detached"] == 1 and 2 in es.edge_index
+
+
+def test_chamfer_min_confidence_ignores_low_confidence_points():
+    g, ev = _fragment_between_two_boxes()
+    conf = np.ones(ev.node_labels[0].shape, np.float32)
+    conf[0, 800:] = 0.2  # the fragment's points are unsure (a fill, not stereo)
+    es = Chamfer3D(tau=3e-4, voxel_size=None, stride=1, min_confidence=0.5)(g, Evidence(ev.node_labels, points=ev.points, confidence=[conf]))
+    assert es.num_edges == 0
+    kept = Chamfer3D(tau=3e-4, voxel_size=None, stride=1, min_confidence=0.5)(g, Evidence(ev.node_labels, points=ev.points, confidence=[None]))
+    assert kept.num_edges == 2  # a view without confidence keeps every point
+
+
+def test_chamfer_spacing_factor_follows_the_point_spacing():
+    """Two samplings of one plane, 2 cm apart on a 2 cm grid: the directed distance (1e-4) fails
+    tau = 5e-5 but passes once the threshold scales with the spacing (1.5 x 2 cm: 9e-4)."""
+    g0, g1 = np.mgrid[0:10, 0:10] * 0.02
+    a = np.stack([g0.ravel(), g1.ravel(), np.zeros(100)], 1)
+    pts = np.concatenate([a, a + [0.01, 0, 0]]).astype(np.float32)[None]
+    lab = np.array([[0] * 100 + [1] * 100])
+    g = CorrespondenceGraph(2, node_attr={"area": [100, 100]})
+    ev = Evidence([lab], points=[pts])
+    assert Chamfer3D(tau=5e-5, voxel_size=None, stride=1)(g, ev).num_edges == 0
+    es = Chamfer3D(tau=5e-5, voxel_size=None, stride=1, spacing_factor=1.5)(g, ev)
+    assert es.num_edges == 1 and es.edge_attr["tau"][0] == pytest.approx((1.5 * 0.02) ** 2)

@@ -231,7 +231,8 @@ def test_evidence_on_demand_and_any_number_of_stages(spy):
     assert len(r.graphs) == 4 and r.num_stages == 4 and r.num_objects == 2
     ev = spy.seen[0]
     assert ev.rgb is not None and len(ev.cameras) == scene.num_views and ev.cameras[0][0].shape == (3, 3)
-    assert ev.features is None and ev.confidence is None  # nobody requires them
+    assert ev.features is None  # nobody requires them
+    assert ev.confidence == [None] * scene.num_views  # chamfer_3d reads it (min_confidence); these views have none
     assert spy.seen[0].rgb is spy.seen[1].rgb  # built once, shared by the stages
     spy.seen.clear()
     segment(scene, masks, matches, Config(stages=[["spy_test"]]))
@@ -306,3 +307,91 @@ def test_minimum_support_points_and_single_view():
     assert all((lab == 0).all() for lab in r.labels) and r.object_points.num_nodes == 0
     r1 = segment(scene.select([0]), masks[:1], {})  # one view: min_views is capped at the number of views
     assert r1.info["support"]["min_views"] == 1 and r1.num_objects == 2
+
+
+def test_unmerged_objects_that_other_views_see_are_kept():
+    """With no 2D edges every mask is its own one-view object; the other views see each of them
+    where it is, so none is a fragment (GraphSeg-minus with the paper's rule leaves many such)."""
+    scene, masks, _ = two_boxes_scene(parts=1)
+    cfg = Config.minus()
+    r = segment(scene, masks, {}, cfg)
+    assert r.num_objects == 6 and r.info["support"]["confirmed"] == 6 and r.info["support"]["dropped"] == 0
+    strict = segment(scene, masks, {}, cfg.model_copy(update={"objects": cfg.objects.model_copy(update={"confirm_fraction": 1.0})}))
+    assert strict.num_objects == 0 and strict.info["support"]["dropped"] == 6  # only mask views count
+
+
+def test_confirming_views_needs_the_same_depth_in_the_other_view():
+    from graphseg.method.segment import confirming_views
+
+    scene, _, _ = two_boxes_scene(parts=1)
+    pts = [v.points for v in scene.views]
+    cams = [(v.K, v.cam_to_world) for v in scene.views]
+    fg = [np.isfinite(p[..., 0]) & (v.instances > 0) for p, v in zip(pts, scene.views)]
+    box = pts[0][scene.views[0].instances == 1]
+    assert confirming_views(box, 0, pts, cams, fg) == 2
+    assert confirming_views(box + np.array([0, 0, 0.1], np.float32), 0, pts, cams, fg) == 0  # 10 cm off
+    assert confirming_views(box, 0, pts, cams, fg, min_share=1.01) == 0
+    assert confirming_views(box[:0], 0, pts, cams, fg) == 0
+
+
+def _without_matches_in_view0(matches, region):
+    """The matches, less those with an end in ``region`` (bool ``[H, W]``) of view 0."""
+    out = {}
+    for (i, j), m in matches.items():
+        keep = np.ones(len(m), bool)
+        for side, view in (("xy_i", i), ("xy_j", j)):
+            if view == 0:
+                xy = np.rint(getattr(m, side)).astype(int)
+                keep &= ~region[xy[:, 1], xy[:, 0]]
+        out[(i, j)] = Matches(m.xy_i[keep], m.xy_j[keep], m.certainty[keep])
+    return out
+
+
+def test_a_one_view_object_that_the_other_views_see_as_an_object_joins_it():
+    """Issue 20: view 0's mask of box 1 has no edge (no match touches it, no 3D stage), so it was a
+    third object seen in one view; the other two views see its points as box 1, so with estimated
+    points (`lifted.objects`: merge_seen) it joins box 1."""
+    scene, masks, matches = two_boxes_scene(parts=1)
+    lone = np.asarray(masks[0][0], bool)
+    cut = _without_matches_in_view0(matches, lone)
+    cfg = Config.preset("rgbd").without_3d()
+    r = segment(scene, masks, cut, cfg.for_lifter("sfm"))  # estimated points: merge_seen
+    sup = r.info["support"]
+    assert r.num_objects == 2 and sup["merged"] == 1 and sup["confirmed"] == 1 and sup["dropped"] == 0
+    assert r.object_of(0, 0) == r.object_of(1, 0) != 0
+    assert_exact(scene, r)
+    measured = segment(scene, masks, cut, cfg)  # measured depth keeps the one-view object
+    assert measured.num_objects == 3 and measured.info["support"]["merged"] == 0
+
+
+def test_confirming_labels_counts_the_ids_the_other_views_give():
+    from graphseg.method.segment import confirming_labels
+
+    scene, _, _ = two_boxes_scene(parts=1)
+    pts = [v.points for v in scene.views]
+    cams = [(v.K, v.cam_to_world) for v in scene.views]
+    fg = [np.isfinite(p[..., 0]) & (v.instances > 0) for p, v in zip(pts, scene.views)]
+    labels = [v.instances * 10 for v in scene.views]
+    box = pts[0][scene.views[0].instances == 2]
+    n, ids = confirming_labels(box, 0, pts, cams, fg, labels)
+    assert n == 2 and set(ids) == {20} and ids[20] <= 2 * len(box)
+    assert confirming_labels(box, 0, pts, cams, fg, None) == (2, {})
+    assert confirming_labels(box[:0], 0, pts, cams, fg, labels) == (0, {})
+
+
+def test_a_piece_cut_off_an_object_goes_back_to_it():
+    """The segmenter cut a small unmatched piece off box 1 in view 0 (no 2D edge; no 3D stage, and
+    no confirmation by the other views): it is below the minimum support, but it continues the box
+    across its border at the same depth, so it joins the box instead of becoming background."""
+    scene, masks, matches = two_boxes_scene(parts=1)
+    box = np.asarray(masks[0][0], bool)
+    ys, xs = np.nonzero(box)
+    piece = box & (np.arange(box.shape[1])[None, :] <= xs.min() + 2)  # a 3-pixel-wide strip of its left side
+    m0 = [box & ~piece, piece, *[np.asarray(m, bool) for m in masks[0][1:]]]
+    cut = _without_matches_in_view0(matches, piece)  # no match touches the piece
+    cfg = Config.preset("rgbd", objects={"confirm_fraction": 1.0}).without_3d()
+    r = segment(scene, [m0, *masks[1:]], cut, cfg)
+    sup = r.info["support"]
+    assert r.num_objects == 2 and sup["dropped"] == 1 and sup["absorbed"] == 1
+    assert r.object_of(0, 1) == r.object_of(0, 0) != 0  # the piece's mask belongs to the box
+    assert_exact(scene, r)
