@@ -239,8 +239,9 @@ def test_lifted_points_get_their_own_criterion_options():
     assert sfm.criterion_options("chamfer_3d")["tau"] == cfg.criterion_options("chamfer_3d")["tau"]  # the rest kept
     assert cfg.for_lifter("rgbd") is cfg and cfg.for_lifter(None) is cfg and cfg.for_lifter("given") is cfg
     assert cfg.criterion_options("chamfer_3d")["fragment_ratio"] is None  # not mutated
-    assert cfg.objects.merge_seen is False and sfm.objects.merge_seen is True  # and the object rule
-    assert sfm.objects.min_views == cfg.objects.min_views
+    assert sfm.objects == cfg.objects  # no object overrides by default
+    three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
+    assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
     off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}})
     assert off.for_lifter("sfm") is off
     with pytest.raises(ValidationError, match="merge_sen"):

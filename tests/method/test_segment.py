@@ -349,19 +349,19 @@ def _without_matches_in_view0(matches, region):
 
 def test_a_one_view_object_that_the_other_views_see_as_an_object_joins_it():
     """Issue 20: view 0's mask of box 1 has no edge (no match touches it, no 3D stage), so it was a
-    third object seen in one view; the other two views see its points as box 1, so with estimated
-    points (`lifted.objects`: merge_seen) it joins box 1."""
+    third object seen in one view; the other two views see its points as box 1, so it joins box 1
+    (`objects.merge_seen`)."""
     scene, masks, matches = two_boxes_scene(parts=1)
     lone = np.asarray(masks[0][0], bool)
     cut = _without_matches_in_view0(matches, lone)
     cfg = Config.preset("rgbd").without_3d()
-    r = segment(scene, masks, cut, cfg.for_lifter("sfm"))  # estimated points: merge_seen
+    r = segment(scene, masks, cut, cfg)
     sup = r.info["support"]
     assert r.num_objects == 2 and sup["merged"] == 1 and sup["confirmed"] == 1 and sup["dropped"] == 0
     assert r.object_of(0, 0) == r.object_of(1, 0) != 0
     assert_exact(scene, r)
-    measured = segment(scene, masks, cut, cfg)  # measured depth keeps the one-view object
-    assert measured.num_objects == 3 and measured.info["support"]["merged"] == 0
+    off = segment(scene, masks, cut, Config.preset("rgbd", objects={"merge_seen": False}).without_3d())
+    assert off.num_objects == 3 and off.info["support"]["merged"] == 0  # before: a third object
 
 
 def test_confirming_labels_counts_the_ids_the_other_views_give():
