@@ -345,10 +345,17 @@ def apply_min_support(
     confirmed = 0
     part_of = np.zeros(num, np.int64)  # 1-based object that the confirming views see in place of this one
     if cameras is not None and foreground is not None and all(K is not None and T is not None for K, T in cameras):
-        for k in np.flatnonzero((views < need_views) & (count >= max(int(min_points), int(min_confirm)))):
+        candidates = np.flatnonzero((views < need_views) & (count >= max(int(min_points), int(min_confirm))))
+        groups = []  # per view: pixel indices sorted by object id (stable: increasing index within an id), and the id bounds
+        for lab in labels if candidates.size else []:
+            flat = np.asarray(lab).ravel()
+            order = np.argsort(flat, kind="stable")
+            groups.append((order, np.searchsorted(flat[order], np.arange(num + 2))))
+        for k in candidates:
             ids: dict[int, int] = {}
-            for v, (lab, pm) in enumerate(zip(labels, points)):
-                sel = np.flatnonzero((np.asarray(lab) == k + 1).ravel())
+            for v, pm in enumerate(points):
+                order, bounds = groups[v]
+                sel = order[bounds[k + 1] : bounds[k + 2]]
                 if sel.size == 0:
                     continue
                 pts = np.asarray(pm).reshape(-1, 3)[sel[:: max(1, sel.size // sample)]]
