@@ -17,7 +17,9 @@ constrained union-find; concave creases with jumps only above 10 cm;
 no colour edge) in the 3D stage; both together with DBSCAN outlier removal
 before the Chamfer test (the ``robust`` preset), the preset without that
 outlier removal, and the preset with greedy additive edge contraction
-(``gaec``); ``core_attach`` (small masks follow one edge),
+(``gaec``), with weighted cannot-links (``repulsion`` 2), with fragments
+that join one cluster only (``fragment_area`` 300 px), and with per-pixel
+refinement (issue 21); ``core_attach`` (small masks follow one edge),
 ``view_consensus`` in place of ``pixel_match``; then the baselines
 ``maskclustering`` and ``sam3d``. Inputs (lifted scene, masks, matches) are
 computed once per scene and segmenter and shared by every row.
@@ -79,6 +81,12 @@ def _without_outliers(cfg: Config) -> Config:
     return _variant(cfg, stages=stages)
 
 
+def _no_colour_adjacency(cfg: Config) -> Config:
+    """``cfg`` with ``smooth_adjacency``'s colour test switched off."""
+    stages = [[{k: ({**v, "color": None} if k == "smooth_adjacency" else v) for k, v in e.items()} for e in stage] for stage in cfg.to_dict()["stages"]]
+    return _variant(cfg, stages=stages)
+
+
 def variants() -> dict[str, Config]:
     base = Config.preset("rgbd")
     stages = base.to_dict()["stages"]
@@ -92,6 +100,10 @@ def variants() -> dict[str, Config]:
         "robust preset: repulsion (jump 10 cm + concave) + smooth_adjacency + Chamfer DBSCAN, constrained UF": Config.preset("robust"),
         "robust preset without Chamfer outlier removal": _without_outliers(Config.preset("robust")),
         "robust preset with the gaec contractor": _variant(Config.preset("robust"), contractor="gaec"),
+        "robust preset, gaec with cannot-links of weight 2": _variant(Config.preset("robust"), contractor={"gaec": {"repulsion": 2.0}}),
+        "robust preset, gaec, fragments (< 300 px) join one cluster": _variant(Config.preset("robust"), contractor={"gaec": {"fragment_area": 300.0}}),
+        "robust preset + per-pixel refinement": _variant(Config.preset("robust"), refine={"enabled": True}),
+        "robust preset, gaec, smooth_adjacency without its colour test": _no_colour_adjacency(_variant(Config.preset("robust"), contractor="gaec")),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),
         "view_consensus for pixel_match": _variant(base, stages=[["view_consensus"], *stages[1:]]),

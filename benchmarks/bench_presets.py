@@ -13,7 +13,11 @@ the timings are wall times.
 
 Writes the table as Markdown next to the JSON (same name, ``.md``).
 
-Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust] [--repeat 3] [--json PATH]
+Besides the presets, ``--presets`` takes the variants of :data:`VARIANTS`
+(issue 21: ``"robust + refine"``, per-pixel refinement after contraction;
+``"robust, gaec"``, greedy additive edge contraction).
+
+Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
 
 from __future__ import annotations
@@ -33,7 +37,17 @@ from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
-STEPS = ("background", "compose", "stage0", "stage1", "outputs")
+STEPS = ("background", "compose", "stage0", "stage1", "refine", "outputs")
+
+#: Named configurations other than the presets.
+VARIANTS = {
+    "robust + refine": lambda: Config.preset("robust", refine={"enabled": True}),
+    "robust, gaec": lambda: Config.model_validate({**Config.preset("robust").to_dict(), "contractor": "gaec"}),
+}
+
+
+def config(name: str) -> Config:
+    return VARIANTS[name]() if name in VARIANTS else Config.preset(name)
 
 
 def scenes():
@@ -64,7 +78,7 @@ def main(argv=None):
         masks = compute_masks(scene, "geometric", base)
         matches = compute_matches(scene, None, base)
         for preset in args.presets:
-            cfg = Config.preset(preset)
+            cfg = config(preset)
             best, runs = float("inf"), None
             for _ in range(args.repeat):
                 sec, result = timed(lambda: segment(scene, masks, matches, cfg))

@@ -32,7 +32,7 @@ from typing import Any, NoReturn, TextIO
 __all__ = ["main", "build_parser", "parse_backend_option", "PRESET_NAMES"]
 
 #: The names of :data:`graphseg.config.PRESETS` (written out so that ``--help`` imports no config code; a test keeps them equal).
-PRESET_NAMES = ("rgbd", "paper", "robust")
+PRESET_NAMES = ("rgbd", "paper", "robust", "multicut")  # the keys of graphseg.config.PRESETS (tests/test_cli.py checks), kept here so the CLI imports no pydantic at start
 
 #: Exit status when standard output was closed by its reader (128 + SIGPIPE).
 EXIT_BROKEN_PIPE = 141
@@ -140,7 +140,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP)")
     r.add_argument("-o", "--out", required=True, help="output folder: must not exist, or be an earlier `graphseg run` output (else pass --overwrite)")
     r.add_argument("--config", help="YAML/JSON config file; its keys override the --preset in use")
-    r.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases and jumps over 10 cm, smooth_adjacency, DBSCAN-cleaned Chamfer points and the constrained contractor); --config overrides it key by key")
+    r.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases and jumps over 10 cm, smooth_adjacency, DBSCAN-cleaned Chamfer points and the constrained contractor; multicut: robust with greedy additive edge contraction and no colour test in smooth_adjacency); --config overrides it key by key")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has depth, sfm when it has none)")

@@ -200,6 +200,22 @@ class PairConfig(_Model):
     translation_scale: float = Field(1.0, gt=0)
 
 
+class RefineConfig(_Model):
+    """Per-pixel refinement after contraction (:func:`graphseg.method.refine.refine_labels`).
+
+    Every object pixel is relabelled by the objects that the other views give
+    its 3D point, when at least ``min_views`` views agree and outweigh its own
+    label. Off by default: on YCB-Video (``benchmarks/bench_ycb_views.py``) it
+    moved the mean IoU by -0.003 to +0.007 and costs 0.2-0.5 s per 10 views
+    (docs/results.md); the errors there are whole masks, not pixels.
+    """
+
+    enabled: bool = Field(False, description="relabel object pixels by multi-view 3D consensus after contraction")
+    tolerance: float = Field(0.02, gt=0, description="relative depth agreement for another view to see a pixel's point")
+    self_weight: float = Field(1.0, ge=0, description="weight of a pixel's own label against the other views' votes")
+    min_views: int = Field(2, ge=1, description="other views that must vote for a new object")
+
+
 class OutputConfig(_Model):
     """What the result keeps."""
 
@@ -424,6 +440,23 @@ PRESETS: dict[str, dict[str, Any]] = {
         "contractor": "constrained",
         "background": {"max_overlap": 0.5},
     },
+    # robust with greedy additive edge contraction and smooth_adjacency without its colour test
+    # (issue 21; chosen on the tune half of bench_ycb_views.py, measured in docs/results.md)
+    "multicut": {
+        "stages": [
+            [
+                {"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}},
+                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
+            ],
+            [
+                {"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan", "dbscan_min_samples": 15}},
+                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
+                {"smooth_adjacency": {"color": None}},
+            ],
+        ],
+        "contractor": "gaec",
+        "background": {"max_overlap": 0.5},
+    },
 }
 
 
@@ -438,6 +471,7 @@ class Config(_Model):
     background: BackgroundConfig = Field(default_factory=BackgroundConfig)
     masks: MaskConfig = Field(default_factory=MaskConfig)
     objects: ObjectConfig = Field(default_factory=ObjectConfig)
+    refine: RefineConfig = Field(default_factory=RefineConfig)
     lifted: LiftedConfig = Field(default_factory=LiftedConfig)
     pairs: PairConfig = Field(default_factory=PairConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
@@ -496,6 +530,30 @@ class Config(_Model):
     def minus(cls, **kwargs: Any) -> Config:
         """GraphSeg-minus, the paper's ablation: the 2D stage only."""
         return cls(**kwargs).without_3d()
+
+    def for_method(self) -> Config:
+        """The configuration ``method`` really runs: its stages and contractor.
+
+        ``graphseg`` keeps the config as is; ``graphseg-minus`` drops the 3D
+        criteria; ``maskclustering`` and ``sam3d`` replace the stages (and use
+        components contraction). Idempotent, so a saved config reloads to the
+        same run. :func:`graphseg.method.segment` applies it, so every entry
+        point runs what ``method`` names.
+
+        Examples
+        --------
+        >>> Config(method="sam3d").for_method().stage_names()
+        [['bidirectional_overlap']]
+        >>> Config(method="graphseg-minus").for_method().stage_names()
+        [['pixel_match']]
+        """
+        if self.method == "graphseg-minus":
+            return self.without_3d()
+        if self.method == "maskclustering":
+            return Config.model_validate({**self.to_dict(), "stages": [["view_consensus"]] * 3, "contractor": "star"})
+        if self.method == "sam3d":
+            return Config.model_validate({**self.to_dict(), "stages": [["bidirectional_overlap"]], "contractor": "star"})
+        return self
 
     def without_3d(self) -> Config:
         """A copy without criteria tagged ``dimension: "3d"`` (stages left empty are dropped)."""

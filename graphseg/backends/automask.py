@@ -18,7 +18,10 @@ to the image size. So the same code runs SAM 2 in torch, an ONNX export, or a
 fake predictor in tests.
 
 Boxes are half-open pixel boxes ``[x0, y0, x1, y1)``: a mask covering columns
-2..4 has ``x0 = 2, x1 = 5`` and width 3.
+2..4 has ``x0 = 2, x1 = 5`` and width 3. SAM's generator measures its boxes by
+their last pixel instead (``x1 = 4``, area ``(x1 - x0) (y1 - y0)``) in box NMS
+and in the crop-edge test, so those two steps use that form internally (the
+same masks survive as in SAM; the returned boxes stay half-open).
 
 Examples
 --------
@@ -288,6 +291,13 @@ def crop_boxes(shape: tuple[int, int], n_layers: int, overlap_ratio: float = 512
     return np.array(boxes, np.int64), np.array(layers, np.int64)
 
 
+def _sam_boxes(boxes: np.ndarray) -> np.ndarray:
+    """Half-open boxes as SAM's generator compares them: ``[x0, y0, x_last, y_last]``; empty boxes stay ``[0, 0, 0, 0]``."""
+    out = np.array(boxes, np.int64).reshape(-1, 4)
+    out[out[:, 2] > out[:, 0], 2:] -= 1
+    return out
+
+
 def _resize_logits(logits: np.ndarray, h: int, w: int) -> np.ndarray:
     import cv2
 
@@ -342,8 +352,9 @@ def _crop_proposals(
         ok = boxes[:, 2] > boxes[:, 0]
         boxes = boxes + np.array([x0, y0, x0, y0])
         if (x0, y0, x1, y1) != (0, 0, W, H):
-            near_crop = np.isclose(boxes, [x0, y0, x1, y1], atol=edge_tolerance, rtol=0)
-            near_image = np.isclose(boxes, [0, 0, W, H], atol=edge_tolerance, rtol=0)
+            last = _sam_boxes(boxes)  # SAM tests the last pixel against the crop end
+            near_crop = np.isclose(last, [x0, y0, x1, y1], atol=edge_tolerance, rtol=0)
+            near_image = np.isclose(last, [0, 0, W, H], atol=edge_tolerance, rtol=0)
             ok &= ~(near_crop & ~near_image).any(1)
         if not ok.any():
             continue
@@ -353,7 +364,7 @@ def _crop_proposals(
         props = _empty(h, w)
     else:
         packed = _concat(parts, h, (w + 7) // 8)
-        packed = packed.take(box_nms(packed.boxes, packed.iou, box_nms_thresh))
+        packed = packed.take(box_nms(_sam_boxes(packed.boxes), packed.iou, box_nms_thresh))
         props = packed._replace(masks=np.unpackbits(packed.masks, axis=-1, count=w).astype(bool))
     if (h, w) != (H, W):
         full_masks = np.zeros((len(props.masks), H, W), bool)
@@ -453,7 +464,7 @@ def generate_masks(
     if len(boxes) > 1:
         crop_of = np.concatenate([np.full(len(p.iou), i) for i, p in enumerate(parts)]).astype(np.int64)
         area = ((boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])).astype(np.float64)
-        props = props.take(box_nms(props.boxes, 1.0 / area[crop_of], crop_nms_thresh))
+        props = props.take(box_nms(_sam_boxes(props.boxes), 1.0 / area[crop_of], crop_nms_thresh))
     if min_mask_region_area > 0 and len(props.masks):
         new_masks = np.empty_like(props.masks)
         unchanged = np.empty(len(props.masks), np.float64)
@@ -464,6 +475,6 @@ def generate_masks(
             unchanged[i] = not (c1 or c2)
         new_boxes = masks_to_boxes(new_masks)
         props = props._replace(masks=new_masks, boxes=new_boxes)
-        props = props.take(box_nms(new_boxes, unchanged, box_nms_thresh))
+        props = props.take(box_nms(_sam_boxes(new_boxes), unchanged, box_nms_thresh))
         props = props.take(np.asarray(props.masks.any(axis=(1, 2))))
     return props.take(np.argsort(-props.iou, kind="stable"))

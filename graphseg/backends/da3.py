@@ -1,7 +1,10 @@
 """The ``da3`` lifter: Depth Anything 3 (any-view model) from the user's checkpoint.
 
-One forward pass over all N views gives per-view depth, depth confidence,
-extrinsics (world-to-camera) and intrinsics at the model's input size; they
+Each image is resized as Depth Anything 3's own ``inference`` does by default
+(``process_res_method="upper_bound_resize"``, :func:`resize_for_da3`) and
+normalised with ImageNet statistics (RGB). One forward pass over all N views
+gives per-view depth, depth confidence, extrinsics (world-to-camera) and
+intrinsics at the model's input size; they
 become world point maps ``c2w * backproject(depth, K)``, resized to the images by
 the documented nearest-neighbour rule (:mod:`graphseg.io.precomputed`), and
 :func:`graphseg.backends.align.finish_lift` brings them to metres (known camera
@@ -32,19 +35,62 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..registry import MissingDependencyError
 from ..scene import Scene, SceneError, backproject
 from .align import Alignment, lift_from_alignment
-from .dino import patch_grid
 from .sam import IMAGENET_MEAN, IMAGENET_STD
 
-__all__ = ["DA3Lifter", "load_da3", "model_size_14", "INSTALL"]
+__all__ = ["DA3Lifter", "load_da3", "model_size_14", "resize_for_da3", "INSTALL"]
 
 INSTALL = 'pip install "graphseg[da3]" && pip install --no-deps depth-anything-3==0.1.1'
 _MEAN = np.array(IMAGENET_MEAN, np.float32)
 _STD = np.array(IMAGENET_STD, np.float32)
 
 
+def _bound_size(shape: tuple[int, int], size: int) -> tuple[int, int]:
+    h, w = shape
+    if max(h, w) == size:
+        return h, w
+    s = size / max(h, w)
+    return max(1, int(round(h * s))), max(1, int(round(w * s)))
+
+
+def _nearest_14(x: int) -> int:
+    down = x // 14 * 14
+    return max(14, down + 14 if down + 14 - x <= x - down else down)  # ties go up, as DA3's
+
+
 def model_size_14(shape: tuple[int, int], size: int) -> tuple[int, int]:
-    """``(h, w)``: long side near ``size``, both multiples of DA3's patch size 14, aspect kept."""
-    return patch_grid(shape, size, 14)
+    """``(h, w)`` of the model input: DA3's ``upper_bound_resize`` size rule.
+
+    The long side is scaled to ``size`` (each side rounded to an integer), then
+    each side goes to its nearest multiple of DA3's patch size 14 (ties up; at
+    least 14).
+
+    Examples
+    --------
+    >>> model_size_14((720, 1280), 504)  # 283.5 -> 284 -> 280
+    (280, 504)
+    """
+    h, w = _bound_size(shape, size)
+    return _nearest_14(h), _nearest_14(w)
+
+
+def resize_for_da3(rgb: np.ndarray, size: int) -> np.ndarray:
+    """``rgb`` at :func:`model_size_14` as DA3's ``InputProcessor`` makes it (``upper_bound_resize``).
+
+    Two OpenCV resizes, as there: the long side to ``size`` (cubic when
+    enlarging, else area), then each side to its multiple of 14 (cubic when
+    either side grows, else area).
+    """
+    import cv2
+
+    rgb = np.ascontiguousarray(rgb)
+    h, w = rgb.shape[:2]
+    bh, bw = _bound_size((h, w), size)
+    if (bh, bw) != (h, w):
+        rgb = cv2.resize(rgb, (bw, bh), interpolation=cv2.INTER_CUBIC if size > max(h, w) else cv2.INTER_AREA)
+    th, tw = _nearest_14(bh), _nearest_14(bw)
+    if (th, tw) != (bh, bw):
+        rgb = cv2.resize(rgb, (tw, th), interpolation=cv2.INTER_CUBIC if th > bh or tw > bw else cv2.INTER_AREA)
+    return rgb
 
 
 def _import(module: str) -> Any:
@@ -120,11 +166,21 @@ class DA3Lifter:
         self.net = load_da3(opts.model, opts.checkpoint)
 
     def predict(self, rgbs: list[np.ndarray], hw: tuple[int, int]) -> dict[str, np.ndarray]:
-        """Raw DA3 outputs for uint8 images: ``depth``, ``conf`` ``[N, h, w]``, ``extrinsics`` ``[N, 3, 4]`` (w2c), ``intrinsics`` ``[N, 3, 3]``."""
+        """Raw DA3 outputs for uint8 RGB images: ``depth``, ``conf`` ``[N, h, w]``, ``extrinsics`` ``[N, 3, 4]`` (w2c), ``intrinsics`` ``[N, 3, 3]``.
+
+        ``hw``: the model input size; images for which it is :func:`model_size_14`
+        of option ``size`` are resized by :func:`resize_for_da3`, others straight to ``hw``.
+        """
         import cv2
         import torch
 
-        x = np.stack([(cv2.resize(np.ascontiguousarray(r), (hw[1], hw[0]), interpolation=cv2.INTER_AREA).astype(np.float32) / 255.0 - _MEAN) / _STD for r in rgbs])
+        def resize(r: np.ndarray) -> np.ndarray:
+            if model_size_14(r.shape[:2], self.options.size) == tuple(hw):
+                return resize_for_da3(r, self.options.size)
+            grow = hw[0] > r.shape[0] or hw[1] > r.shape[1]
+            return cv2.resize(np.ascontiguousarray(r), (hw[1], hw[0]), interpolation=cv2.INTER_CUBIC if grow else cv2.INTER_AREA)
+
+        x = np.stack([(resize(r).astype(np.float32) / 255.0 - _MEAN) / _STD for r in rgbs])
         t = torch.from_numpy(x.transpose(0, 3, 1, 2).copy())[None]
         import contextlib
         import io

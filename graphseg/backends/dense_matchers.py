@@ -144,13 +144,19 @@ class LoFTRMatcher(ModelBackend):
         return self._torch.from_numpy(g).float().div(255.0)[None, None].to(self.options.device)
 
     def raw_matches(self, view_i: View, view_j: View) -> Matches:
-        """Every match LoFTR returns (confidence above its coarse threshold), in original pixels."""
+        """Every match LoFTR returns (confidence above its coarse threshold), in original pixels.
+
+        LoFTR's keypoints put the centre of model pixel ``(x, y)`` at
+        ``(x + 0.5, y + 0.5)`` (the reference implementation's frame, as kornia
+        documents); minus 0.5 they are in graphseg's frame (integer pixel
+        centres), then the half-pixel rule maps them to each image's size.
+        """
         ri, rj = _rgb(view_i), _rgb(view_j)
         with self._torch.inference_mode():
             out = self.model({"image0": self._gray(ri), "image1": self._gray(rj)})
         size = self.options.image_size
-        xi = _to_pixels(out["keypoints0"].cpu().numpy(), size, (ri.shape[1], ri.shape[0]))
-        xj = _to_pixels(out["keypoints1"].cpu().numpy(), size, (rj.shape[1], rj.shape[0]))
+        xi = _to_pixels(out["keypoints0"].cpu().numpy() - 0.5, size, (ri.shape[1], ri.shape[0]))
+        xj = _to_pixels(out["keypoints1"].cpu().numpy() - 0.5, size, (rj.shape[1], rj.shape[0]))
         return Matches(xi, xj, out["confidence"].float().cpu().numpy())
 
     def __call__(self, view_i: View, view_j: View) -> Matches:

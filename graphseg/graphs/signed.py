@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from .contract import canonical_cluster
 from .graph import as_edge_index
@@ -31,6 +32,7 @@ __all__ = [
     "core_attach_contraction",
     "edge_strength",
     "greedy_additive_contraction",
+    "run_contractor",
     "signed_edges",
     "split_signed",
     "ConstrainedUnionFindContraction",
@@ -109,8 +111,10 @@ def constrained_union_find(edge_index: Any, num_nodes: int, *, weight: Any = Non
     return canonical_cluster(np.fromiter((find(i) for i in range(n)), np.int64, n))
 
 
-def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any = None, cannot_link: Any = None) -> np.ndarray:
-    """Greedy additive edge contraction (GAEC, a multicut heuristic) with hard cannot-links.
+def greedy_additive_contraction(
+    edge_index: Any, num_nodes: int, *, weight: Any = None, cannot_link: Any = None, repulsion: float | None = None, core: Any = None
+) -> np.ndarray:
+    """Greedy additive edge contraction (GAEC, a multicut heuristic) with hard or weighted cannot-links.
 
     Every cluster pair carries the *sum* of the weights of the edges between
     its members. The pair with the largest sum is joined first and the sums
@@ -130,6 +134,18 @@ def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any 
         Positive attraction of each edge; default all 1.
     cannot_link : array_like of int, shape ``[2, C]``, optional
         Node pairs that must end in different clusters.
+    repulsion : float, optional
+        None (default): cannot-links are hard (a pair's sum is -inf). A number:
+        each cannot-link adds ``-repulsion`` to its pair's sum instead, so
+        enough attraction between two clusters outweighs it (the multicut
+        objective with signed weights).
+    core : array_like of bool ``[N]``, optional
+        Fragments never bridge: with ``core`` given, the core nodes are
+        contracted first using only the edges among them; then each other node
+        (a fragment) joins the one core cluster with the largest positive sum of
+        its edges (minus its cannot-links) to that cluster, and fragments with no
+        such cluster are contracted among themselves. A fragment thus joins at
+        most one object and never ties two core clusters together.
 
     Returns
     -------
@@ -149,7 +165,14 @@ def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any 
     [0, 0, 0, 1]
     >>> greedy_additive_contraction(ei, 3, weight=[0.9, 0.8, 0.3], cannot_link=[[0], [2]]).tolist()
     [0, 0, 1]
+    >>> greedy_additive_contraction(ei, 3, weight=[0.9, 0.8, 0.3], cannot_link=[[0], [2]], repulsion=0.5).tolist()
+    [0, 0, 0]
+    >>> bridge = np.array([[0, 1], [1, 2]])      # core 0 - fragment 1 - core 2
+    >>> greedy_additive_contraction(bridge, 3, weight=[0.4, 0.9], core=[True, False, True]).tolist()
+    [0, 1, 1]
     """
+    if core is not None:
+        return _core_first(edge_index, num_nodes, weight=weight, cannot_link=cannot_link, repulsion=repulsion, core=core)
     import heapq
 
     n = int(num_nodes)
@@ -165,9 +188,11 @@ def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any 
         if a != b:
             adj[a][b] = adj[a].get(b, 0.0) + x
             adj[b][a] = adj[a][b]
+    if repulsion is not None and not (np.isfinite(repulsion) and repulsion > 0):
+        raise ValueError(f"expected a positive finite repulsion or None (got {repulsion})")
     for a, b in cl.T.tolist():
         if a != b:
-            adj[a][b] = adj[b][a] = -np.inf
+            adj[a][b] = adj[b][a] = -np.inf if repulsion is None else adj[a].get(b, 0.0) - float(repulsion)
     heap = [(-x, a, b) for a in range(n) for b, x in adj[a].items() if a < b and x > 0]
     heapq.heapify(heap)
     parent = np.arange(n)
@@ -196,6 +221,62 @@ def greedy_additive_contraction(edge_index: Any, num_nodes: int, *, weight: Any 
             break
         parent = nxt
     return canonical_cluster(parent)
+
+
+def _core_first(edge_index: Any, num_nodes: int, *, weight: Any, cannot_link: Any, repulsion: float | None, core: Any) -> np.ndarray:
+    """:func:`greedy_additive_contraction` with ``core``: core nodes first, then each fragment joins one cluster."""
+    n = int(num_nodes)
+    ei = as_edge_index(edge_index, n)
+    is_core = np.asarray(core, bool).reshape(-1)
+    if is_core.shape != (n,):
+        raise ValueError(f"expected core of shape [{n}] (got {list(is_core.shape)})")
+    w = np.ones(ei.shape[1]) if weight is None else np.asarray(weight, np.float64).reshape(-1)
+    if w.shape != (ei.shape[1],):
+        raise ValueError(f"expected weight of shape [{ei.shape[1]}] (got {list(w.shape)})")
+    cl = as_edge_index(np.zeros((2, 0), np.int64) if cannot_link is None else cannot_link, n)
+    both = is_core[ei[0]] & is_core[ei[1]]
+    cluster = greedy_additive_contraction(ei[:, both], n, weight=w[both], cannot_link=cl, repulsion=repulsion)
+    # each fragment: summed evidence to every core cluster (edges add, cannot-links subtract)
+    frag_end = np.concatenate([ei[0], ei[1]])
+    core_end = np.concatenate([ei[1], ei[0]])
+    ww = np.concatenate([w, w])
+    sel = ~is_core[frag_end] & is_core[core_end]
+    f, c, x = frag_end[sel], cluster[core_end[sel]], ww[sel]
+    cf = np.concatenate([cl[0], cl[1]])
+    cc = np.concatenate([cl[1], cl[0]])
+    csel = ~is_core[cf] & is_core[cc]
+    rep = -np.inf if repulsion is None else -float(repulsion)
+    f = np.concatenate([f, cf[csel]])
+    c = np.concatenate([c, cluster[cc[csel]]])
+    x = np.concatenate([x, np.full(int(csel.sum()), rep)])
+    joined = np.full(n, -1, np.int64)
+    if f.size:
+        key, inv = np.unique(f * (n + 1) + c, return_inverse=True)
+        total = np.zeros(key.size)
+        np.add.at(total, inv, x)
+        kf, kc = key // (n + 1), key % (n + 1)
+        # strongest (fragment, cluster) first; a fragment's cannot-links to fragments that already
+        # joined that cluster count too (hard: it may not join there; it tries its next cluster)
+        frag_cl: dict[int, list[int]] = {}
+        for a, b in zip(cf[~is_core[cf] & ~is_core[cc]].tolist(), cc[~is_core[cf] & ~is_core[cc]].tolist()):
+            frag_cl.setdefault(a, []).append(b)
+        for k in np.argsort(-total, kind="stable").tolist():
+            frag, clus, tot = int(kf[k]), int(kc[k]), float(total[k])
+            if tot <= 0:
+                break
+            if joined[frag] >= 0:
+                continue
+            clash = sum(1 for o in frag_cl.get(frag, ()) if joined[o] == clus)
+            if clash and (repulsion is None or tot - clash * float(repulsion) <= 0):
+                continue
+            joined[frag] = clus
+    # fragments with no core cluster: contracted among themselves
+    free = ~is_core & (joined < 0)
+    fe = free[ei[0]] & free[ei[1]]
+    fc = free[cl[0]] & free[cl[1]]
+    sub = greedy_additive_contraction(ei[:, fe], n, weight=w[fe], cannot_link=cl[:, fc], repulsion=repulsion)
+    out = np.where(is_core, cluster, np.where(joined >= 0, joined, n + sub))
+    return canonical_cluster(out)
 
 
 def edge_strength(edge_attr: Mapping[str, Any], num_edges: int) -> np.ndarray:
@@ -263,6 +344,32 @@ def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] |
     pos, neg = split_signed(ei, attrs)
     strength = edge_strength({k: np.asarray(v)[pos] for k, v in attrs.items()}, int(pos.sum()))
     return ei[:, pos], strength, ei[:, neg]
+
+
+def run_contractor(
+    contractor: Any, edge_index: Any, num_nodes: int, *, edge_attr: Mapping[str, Any] | None = None, node_attr: Mapping[str, Any] | None = None, rng: Any = None
+) -> np.ndarray:
+    """Run any contractor on a graph's edges with one meaning of signed edges.
+
+    The one path from a graph to a cluster vector, used by
+    :func:`graphseg.method.segment` and :meth:`CorrespondenceGraph.contract`.
+    Edges with ``sign < 0`` are repulsive: a contractor that reads edge
+    attributes (``uses_edge_attr``) gets them all and honours them as
+    cannot-links; for any other contractor (plain components) they are
+    dropped, so it never merges across them.
+
+    Examples
+    --------
+    >>> from graphseg.graphs.contract import UnionFindContraction
+    >>> ei = np.array([[0, 1], [1, 2]])
+    >>> run_contractor(UnionFindContraction(), ei, 3, edge_attr={"sign": np.array([1.0, -1.0])}).tolist()
+    [0, 0, 1]
+    """
+    if getattr(contractor, "uses_edge_attr", False):
+        extra = {"node_attr": dict(node_attr or {})} if getattr(contractor, "uses_node_attr", False) else {}
+        return np.asarray(contractor(edge_index, num_nodes, rng=rng, edge_attr=dict(edge_attr or {}), **extra))
+    attract, _ = split_signed(edge_index, edge_attr)
+    return np.asarray(contractor(as_edge_index(edge_index, num_nodes)[:, attract], num_nodes, rng=rng))
 
 
 class _SignedContraction:
@@ -407,4 +514,42 @@ class GreedyAdditiveContraction(_SignedContraction):
     """
 
     name = "gaec"
-    solve = staticmethod(greedy_additive_contraction)
+    uses_node_attr = True
+
+    class Options(BaseModel):
+        """Options of ``gaec`` (validated in the config, so a misspelt one is an error there)."""
+
+        model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+        repulsion: float | None = Field(None, gt=0, description="weight of each cannot-link (None: hard cannot-links)")
+        fragment_area: float | None = Field(None, gt=0, description="nodes below this area (pixels) join one core cluster only (None: off)")
+
+    def __init__(self, options: BaseModel | None = None, /, **kwargs: Any) -> None:
+        from .criterion import validate_options
+
+        if options is None:
+            checked = validate_options(self.Options, kwargs, label=self.name)
+            assert isinstance(checked, BaseModel)  # Options is a model here
+            options = checked
+        elif kwargs:
+            raise TypeError("gaec: give options either as an Options instance or as keywords, not both")
+        self.options = options
+        self.repulsion: float | None = getattr(options, "repulsion", None)
+        self.fragment_area: float | None = getattr(options, "fragment_area", None)
+
+    def __call__(
+        self,
+        edge_index: Any,
+        num_nodes: int,
+        *,
+        rng: Any = None,
+        edge_attr: Mapping[str, Any] | None = None,
+        node_attr: Mapping[str, Any] | None = None,
+    ) -> np.ndarray:
+        attract, strength, cannot = signed_edges(edge_index, num_nodes, edge_attr)
+        core = None
+        if self.fragment_area is not None:
+            area = None if node_attr is None else node_attr.get("area")
+            if area is None:
+                raise ValueError("gaec with fragment_area needs the node column 'area'")
+            core = np.asarray(area, np.float64) >= self.fragment_area
+        return greedy_additive_contraction(attract, num_nodes, weight=strength, cannot_link=cannot, repulsion=self.repulsion, core=core)

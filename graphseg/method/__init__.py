@@ -1,8 +1,9 @@
-"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment()."""
+"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), per-pixel refinement."""
 
 from .background import BackgroundInfo, background_masks, fit_table_plane
 from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
+from .refine import project_to_view, refine_labels
 from .segment import segment
 
 __all__ = [
@@ -14,4 +15,6 @@ __all__ = [
     "scene_scale",
     "pose_distance",
     "segment",
+    "refine_labels",
+    "project_to_view",
 ]

@@ -53,11 +53,7 @@ def sam3d(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matc
 
 
 def method_config(config: Config | None = None) -> Config:
-    """The configuration ``config.method`` really runs: its stages and contractor.
-
-    ``graphseg`` keeps the config as is; ``graphseg-minus`` drops the 3D
-    criteria; ``maskclustering`` and ``sam3d`` replace the stages (and use
-    components contraction). Idempotent, so a saved config reloads to the same run.
+    """The configuration ``config.method`` really runs (:meth:`Config.for_method`).
 
     Examples
     --------
@@ -66,14 +62,7 @@ def method_config(config: Config | None = None) -> Config:
     >>> method_config(Config(method="graphseg-minus")).stage_names()
     [['pixel_match']]
     """
-    cfg = config or Config()
-    if cfg.method == "graphseg-minus":
-        return cfg.without_3d()
-    if cfg.method == "maskclustering":
-        return _with(cfg, stages=[["view_consensus"]] * 3, contractor="star")
-    if cfg.method == "sam3d":
-        return _with(cfg, stages=[["bidirectional_overlap"]], contractor="star")
-    return cfg
+    return (config or Config()).for_method()
 
 
 def run_method(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches], config: Config | None = None, **kw: Any) -> Result:

@@ -36,11 +36,12 @@ import numpy as np
 from ..config import Config
 from ..graphs import CorrespondenceGraph, Evidence, coarsen, node_point_sets
 from ..graphs.contract import canonical_cluster
-from ..graphs.signed import split_signed
+from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError
 from .background import background_masks
 from .masks import compose_masks, paint_masks
+from .refine import refine_labels
 
 __all__ = ["segment", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -560,7 +561,7 @@ def segment(
     (O(total matches)) and the Chamfer stage (one sort of the gathered points
     plus k-d tree queries of candidate pairs).
     """
-    cfg = config or Config()
+    cfg = (config or Config()).for_method()  # Config(method="sam3d") runs the sam3d stages, not the default ones
     matches = {} if matches is None else matches
     scene.validate()
     _check_inputs(scene, masks, matches)
@@ -605,12 +606,7 @@ def segment(
             attrs.setdefault("criterion", np.full(es.num_edges, spec.name))
             with_edges.add_edges(es.edge_index, attrs, in_place=True)
             info_s["adders"][spec.name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
-        if getattr(contractor, "uses_edge_attr", False):
-            extra = {"node_attr": dict(with_edges.node_attr)} if getattr(contractor, "uses_node_attr", False) else {}
-            cluster = contractor(with_edges.edge_index, with_edges.num_nodes, rng=gen, edge_attr=dict(with_edges.edge_attr), **extra)
-        else:  # plain components: repulsive (sign < 0) edges are not links
-            attract, _ = split_signed(with_edges.edge_index, with_edges.edge_attr)
-            cluster = contractor(with_edges.edge_index[:, attract], with_edges.num_nodes, rng=gen)
+        cluster = run_contractor(contractor, with_edges.edge_index, with_edges.num_nodes, edge_attr=with_edges.edge_attr, node_attr=with_edges.node_attr, rng=gen)
         with_edges.meta["stage"] = s
         stage_graphs.append(with_edges)
         current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
@@ -640,6 +636,14 @@ def segment(
         merge=cfg.objects.merge_seen,
     )
     num_objects = int(obj.max()) if obj.size else 0
+    refine_info = None
+    if cfg.refine.enabled:
+        t_refine = time.perf_counter()
+        r = cfg.refine
+        out_labels, refine_info = refine_labels(
+            out_labels, points, cameras, confidence=[v.confidence for v in scene.views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
+        )
+        timings["refine"] = time.perf_counter() - t_refine
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
         col = np.zeros(g.num_nodes, np.int64)
         col[g.members["node"]] = obj
@@ -668,6 +672,7 @@ def segment(
             "num_matches": int(sum(len(m) for m in matches.values())),
             "pairs": [list(p) for p in matches],
             "support": support,
+            "refine": refine_info,
             "warnings": _degenerate_warnings(scene, graph, num_objects),
         },
     )

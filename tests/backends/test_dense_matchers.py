@@ -81,15 +81,15 @@ def test_loftr_loads_checkpoint_and_matches(loftr_ckpt):
 def test_loftr_maps_keypoints_to_original_pixels(loftr_ckpt):
     m = matchers.resolve("loftr", checkpoint=str(loftr_ckpt), image_size=(64, 48))
 
-    def fake(batch):  # keypoints in the 64x48 frame
+    def fake(batch):  # keypoints in the 64x48 frame, pixel centres at +0.5 (LoFTR's frame)
         assert batch["image0"].shape == (1, 1, 48, 64) and float(batch["image0"].max()) <= 1.0
         kp = torch.tensor([[0.0, 0.0], [63.0, 47.0]])
         return {"keypoints0": kp, "keypoints1": kp + 1, "confidence": torch.tensor([0.9, 0.3])}
 
     m.model = fake
-    out = m.raw_matches(*_pair(96, 128))  # 2x larger images: x -> (x + 0.5) * 2 - 0.5
-    assert out.xy_i.tolist() == [[0.5, 0.5], [126.5, 94.5]]
-    assert out.xy_j.tolist() == [[2.5, 2.5], [128.5, 96.5]]
+    out = m.raw_matches(*_pair(96, 128))  # 2x larger images: x -> ((x - 0.5) + 0.5) * 2 - 0.5
+    assert out.xy_i.tolist() == [[-0.5, -0.5], [125.5, 93.5]]
+    assert out.xy_j.tolist() == [[1.5, 1.5], [127.5, 95.5]]
     assert out.certainty.tolist() == pytest.approx([0.9, 0.3])
 
 

@@ -155,3 +155,12 @@ def test_mask_node_table_nonfinite_points_and_large_labels():
     small = mask_node_table([np.where(lab == 70000, 3, lab)], [pts])  # same masks, radix path
     for k in ("area", "bbox", "centroid", "num_points", "centroid_3d", "bbox_3d"):
         assert np.array_equal(small[k], t[k])
+
+
+@pytest.mark.parametrize("name", ["star", "union_find", "scipy", "constrained", "core_attach", "gaec"])
+def test_contract_never_merges_across_a_repulsive_edge(name):
+    # 0-1 attract, 1-2 repulsive (sign -1): every contractor keeps 2 apart, as segment() does
+    g = CorrespondenceGraph(3, edge_index=np.array([[0, 1], [1, 2]]), edge_attr={"sign": np.array([1.0, -1.0]), "weight": np.array([0.9, 0.9])})
+    g.node_attr["area"] = np.array([100, 100, 100])
+    c = g.contract(name, rng=0)
+    assert c[0] == c[1] != c[2]

@@ -223,3 +223,83 @@ def test_gaec_registered():
     assert isinstance(c, GreedyAdditiveContraction) and c.uses_edge_attr
     ei = np.array([[0, 1, 0], [1, 2, 2]])
     assert c(ei, 3, edge_attr={"sign": np.array([1.0, 1.0, -1.0])}).tolist() == [0, 0, 1]
+
+
+def test_gaec_weighted_cannot_links_hand_computed():
+    # 0-1 (0.9), 1-2 (0.8), 0-2 (0.3); cannot-link 0-2. Hard: 2 stays out. Soft 0.5: {0,1} then {0,1}-2 sums
+    # 0.8 + 0.3 - 0.5 = 0.6 > 0, so all join; soft 1.5: 1.1 - 1.5 < 0, so 2 stays out.
+    ei = np.array([[0, 1, 0], [1, 2, 2]])
+    w = [0.9, 0.8, 0.3]
+    assert greedy_additive_contraction(ei, 3, weight=w, cannot_link=[[0], [2]]).tolist() == [0, 0, 1]
+    assert greedy_additive_contraction(ei, 3, weight=w, cannot_link=[[0], [2]], repulsion=0.5).tolist() == [0, 0, 0]
+    assert greedy_additive_contraction(ei, 3, weight=w, cannot_link=[[0], [2]], repulsion=1.5).tolist() == [0, 0, 1]
+    # every cannot-link counts: one of 0.6 leaves 1.1 - 0.6 > 0; two (0-2 and 1-2) leave 1.1 - 1.2 < 0
+    assert greedy_additive_contraction(ei, 3, weight=w, cannot_link=[[0], [2]], repulsion=0.6).tolist() == [0, 0, 0]
+    assert greedy_additive_contraction(ei, 3, weight=w, cannot_link=[[0, 1], [2, 2]], repulsion=0.6).tolist() == [0, 0, 1]
+    for bad in (0.0, -1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="repulsion"):
+            greedy_additive_contraction(ei, 3, weight=w, repulsion=bad)
+
+
+@settings(max_examples=60, deadline=None)
+@given(graphs)
+def test_gaec_with_huge_repulsion_equals_hard_cannot_links(data):
+    n, edges, cl, w = data
+    ei = as_ei(edges)
+    ww = np.asarray(w[: ei.shape[1]]) + 0.01
+    hard = greedy_additive_contraction(ei, n, weight=ww, cannot_link=as_ei(cl))
+    soft = greedy_additive_contraction(ei, n, weight=ww, cannot_link=as_ei(cl), repulsion=1e9)
+    assert soft.tolist() == hard.tolist()
+
+
+@settings(max_examples=80, deadline=None)
+@given(graphs, st.lists(st.booleans(), min_size=12, max_size=12))
+def test_gaec_fragments_never_bridge_two_core_clusters(data, core_bits):
+    n, edges, cl, w = data
+    ei = as_ei(edges)
+    ww = np.asarray(w[: ei.shape[1]]) + 0.01
+    core = np.array(core_bits[:n])
+    c = greedy_additive_contraction(ei, n, weight=ww, cannot_link=as_ei(cl), core=core)
+    both = core[ei[0]] & core[ei[1]] if ei.size else np.zeros(0, bool)
+    first = greedy_additive_contraction(ei[:, both], n, weight=ww[both], cannot_link=as_ei(cl))
+    for k in np.unique(c):
+        assert np.unique(first[(c == k) & core]).size <= 1  # at most one core cluster per final cluster
+    for a, b in cl:
+        if a != b:
+            assert c[a] != c[b]
+    cc = components(ei, n)
+    for k in np.unique(c):
+        assert np.unique(cc[c == k]).size == 1
+    if core.all():
+        assert c.tolist() == greedy_additive_contraction(ei, n, weight=ww, cannot_link=as_ei(cl)).tolist()
+
+
+def test_gaec_fragment_joins_its_strongest_cluster_and_fragments_group():
+    # cores 0 and 3; fragment 1 has 0.4 to core 0 and 0.9 to core 3: it joins 3, not both.
+    # fragments 4 and 5 touch no core: they join each other.
+    ei = np.array([[0, 1, 4], [1, 3, 5]])
+    core = [True, False, False, True, False, False]
+    got = greedy_additive_contraction(ei, 6, weight=[0.4, 0.9, 0.5], core=core)
+    assert got[1] == got[3] != got[0] and got[4] == got[5] and got[2] not in (got[0], got[3], got[4])
+    with pytest.raises(ValueError, match=r"core of shape \[6\]"):
+        greedy_additive_contraction(ei, 6, core=[True])
+
+
+def test_gaec_contractor_options():
+    c = GreedyAdditiveContraction(fragment_area=10)
+    ei = np.array([[0, 1], [1, 2]])
+    attr = {"weight": np.array([0.4, 0.9])}
+    assert c(ei, 3, edge_attr=attr, node_attr={"area": np.array([50, 3, 50])}).tolist() == [0, 1, 1]
+    with pytest.raises(ValueError, match="'area'"):
+        c(ei, 3, edge_attr=attr)
+    with pytest.raises(ValueError, match="fragment_area"):
+        GreedyAdditiveContraction(fragment_area=0)
+    from pydantic import ValidationError
+
+    from graphseg.config import Config
+
+    with pytest.raises(ValidationError, match="repulsoin"):  # a misspelt option fails where the config is read
+        Config.model_validate({"contractor": {"gaec": {"repulsoin": 2.0}}})
+
+    built = Config.model_validate({"contractor": {"gaec": {"repulsion": 2.0, "fragment_area": 300}}}).contractor.build()
+    assert (built.repulsion, built.fragment_area) == (2.0, 300)

@@ -1,3 +1,4 @@
+import numpy as np
 import pytest
 from pydantic import ValidationError
 
@@ -27,3 +28,16 @@ def test_baseline_stages():
 def test_unknown_method_rejected():
     with pytest.raises(ValidationError):
         Config(method="nope")
+
+
+def test_segment_runs_the_method_its_config_names():
+    from graphseg.method import segment
+    from graphseg.method.baselines import sam3d
+    from graphseg.testing.scenes import two_boxes_scene
+
+    scene, masks, matches = two_boxes_scene()
+    direct = segment(scene, masks, matches, Config(method="sam3d"))
+    assert direct.config.method == "sam3d" and direct.config.stage_names() == [["bidirectional_overlap"]]
+    base = sam3d(scene, masks, matches)
+    assert all(np.array_equal(a, b) for a, b in zip(direct.labels, base.labels))
+    assert segment(scene, masks, matches, Config(method="graphseg-minus")).config.stage_names() == [["pixel_match"]]

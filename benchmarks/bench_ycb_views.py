@@ -1,0 +1,181 @@
+"""Real RGB-D frames: does seeing more views help? (issue 21)
+
+Scenes: YCB-Video dev videos 0001 and 0002 (``../shared/data/ycbv``), split
+once by frame into two halves of 10 frames each:
+
+* **tune**: frames 0, 2, ..., 18 (the frames ``--num-views 10`` reads);
+* **check**: frames 1, 3, ..., 19.
+
+Settings are chosen on the tune half only; both halves are reported. In each
+half a scene is 3, 5 or 10 views spread evenly over its 10 frames.
+
+Masks (one configuration for all scenes, no per-scene tuning):
+
+* ``geometric``: the default weight-free segmenter;
+* ``gt-cut``: every geometric mask cut along the ground-truth labels (pure
+  masks), so the graph stage is measured apart from the segmenter;
+* ``hed`` (only when the ``hed`` extra is installed): geometric masks cut at
+  HED edges (``GeometricSegmenter(edges="hed")``).
+
+Per variant (a config) and scene: mean IoU, precision, the number of predicted
+objects, and the audit's majority-grouping ceiling (every mask to its majority
+object: what a perfect graph would reach with these masks). Timings are of
+``segment()`` alone (graph stage, background and refinement) on cached inputs.
+
+Usage: python benchmarks/bench_ycb_views.py [--half tune|check|all] [--masks geometric gt-cut hed]
+       [--variants NAME ...] [--cache DIR] [--json PATH]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import pickle
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _common import print_table, write_json  # noqa: E402
+
+from graphseg.audit import audit  # noqa: E402
+from graphseg.config import Config  # noqa: E402
+from graphseg.io import load_scene  # noqa: E402
+from graphseg.method.baselines import run_method  # noqa: E402
+from graphseg.metrics import evaluate  # noqa: E402
+from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
+
+YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
+HALVES = {"tune": list(range(0, 20, 2)), "check": list(range(1, 20, 2))}
+VIEW_COUNTS = (3, 5, 10)
+
+
+def frames(half: str, n: int) -> list[int]:
+    """``n`` frames spread evenly over the half's 10 (first and last included)."""
+    pool = HALVES[half]
+    return [pool[i] for i in np.linspace(0, len(pool) - 1, n).round().astype(int)]
+
+
+def gt_cut(masks: list, scene) -> list:
+    """Every mask label image cut along the ground-truth instances (pure masks)."""
+    out = []
+    for lab, view in zip(masks, scene.views):
+        lab = np.asarray(lab)
+        gt = np.asarray(view.instances).astype(np.int64)
+        key = np.where(lab > 0, lab.astype(np.int64) * (int(gt.max()) + 2) + gt + 1, 0)
+        _, inv = np.unique(key, return_inverse=True)
+        out.append(inv.reshape(lab.shape).astype(np.int32))  # 0 stays 0: the smallest key
+    return out
+
+
+def _robust(contractor: object = "constrained", color: float | None | str = "preset", **update) -> Config:
+    """The ``robust`` preset with another contractor, ``smooth_adjacency`` colour test or sections."""
+    d = Config.preset("robust").to_dict()
+    d["contractor"] = contractor
+    if color != "preset":
+        d["stages"] = [
+            [{k: ({**v, "color": color} if k == "smooth_adjacency" else v) for k, v in e.items()} if isinstance(e, dict) else e for e in stage]
+            for stage in d["stages"]
+        ]
+    return Config.model_validate({**d, **update})
+
+
+def variants() -> dict[str, Config]:
+    """Rows: the presets, then one change each to ``robust`` (issue 21's items)."""
+    return {
+        "rgbd": Config.preset("rgbd"),
+        "robust": Config.preset("robust"),
+        "robust + refine": _robust(refine={"enabled": True}),
+        "robust, gaec": _robust("gaec"),
+        "robust, gaec repulsion 2": _robust({"gaec": {"repulsion": 2.0}}),
+        "robust, gaec fragments 300 px": _robust({"gaec": {"fragment_area": 300.0}}),
+        "robust, gaec, adjacency no colour": _robust("gaec", color=None),
+    }
+
+
+def inputs(video: str, half: str, n: int, masks_kind: str, cache: Path | None):
+    path = None if cache is None else cache / f"{video}-{half}-{n}-{masks_kind}.pkl"
+    if path is not None and path.is_file():
+        with open(path, "rb") as f:
+            return pickle.load(f)
+    cfg = Config.preset("rgbd")
+    scene = lift(load_scene(YCBV / video, views=frames(half, n)), None, cfg)
+    if masks_kind == "hed":
+        from graphseg.backends.segmenters import GeometricSegmenter
+
+        masks = compute_masks(scene, GeometricSegmenter(edges="hed"), cfg)
+    else:
+        masks = compute_masks(scene, "geometric", cfg)
+        if masks_kind == "gt-cut":
+            masks = gt_cut(masks, scene)
+    out = (scene, masks, compute_matches(scene, None, cfg))
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path, "wb") as f:
+            pickle.dump(out, f)
+    return out
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--half", choices=["tune", "check", "all"], default="all")
+    ap.add_argument("--masks", nargs="*", default=["geometric", "gt-cut"])
+    ap.add_argument("--variants", nargs="*", help="only these variants (default: all)")
+    ap.add_argument("--cache", help="folder for the per-scene inputs (pickles), reused across runs")
+    ap.add_argument("--json", default="benchmarks/results/ycb_views.json")
+    args = ap.parse_args(argv)
+    if not YCBV.is_dir():
+        print(f"no YCB-Video frames at {YCBV}; nothing to measure")
+        return
+    var = variants()
+    if args.variants:
+        var = {k: var[k] for k in args.variants}
+    halves = ["tune", "check"] if args.half == "all" else [args.half]
+    cache = Path(args.cache) if args.cache else None
+    per_scene = []
+    t0 = time.perf_counter()
+    for half in halves:
+        for masks_kind in args.masks:
+            for video in ("0001", "0002"):
+                for n in VIEW_COUNTS:
+                    scene, masks, matches = inputs(video, half, n, masks_kind, cache)
+                    gt = [v.instances for v in scene.views]
+                    pts = [v.points for v in scene.views]
+                    for vname, cfg in var.items():
+                        t = time.perf_counter()
+                        r = run_method(scene, masks, matches, cfg)
+                        sec = time.perf_counter() - t
+                        m = evaluate(r.labels, gt, pts, names=scene.objects)
+                        ceiling = audit(r, scene)["summary"].get("majority_grouping_iou")
+                        row = {
+                            "half": half, "masks": masks_kind, "video": video, "views": n, "variant": vname,
+                            "iou": m["mean"]["iou"], "precision": m["mean"]["precision"], "ceiling": ceiling,
+                            "objects_pred": m["num_pred"], "objects_gt": m["num_gt"], "seconds": sec,
+                        }
+                        per_scene.append(row)
+                        print(f"  {half:5s} {masks_kind:9s} {video} {n:2d} views  {vname:24s} IoU {row['iou']:.3f}  ceiling {ceiling:.3f}  "
+                              f"objects {row['objects_pred']}/{row['objects_gt']}  {sec:.2f} s", flush=True)
+    rows = []
+    for half in halves:
+        for masks_kind in args.masks:
+            for vname in var:
+                sel = [r for r in per_scene if r["half"] == half and r["masks"] == masks_kind and r["variant"] == vname]
+                row = {"half": half, "masks": masks_kind, "variant": vname}
+                for n in VIEW_COUNTS:
+                    s = [r for r in sel if r["views"] == n]
+                    row[f"iou@{n}"] = float(np.mean([r["iou"] for r in s]))
+                    row[f"ceil@{n}"] = float(np.mean([r["ceiling"] for r in s]))
+                row["iou"] = float(np.mean([r["iou"] for r in sel]))
+                row["of_ceiling"] = float(min(r["iou"] / r["ceiling"] for r in sel if r["ceiling"]))
+                row["max_s"] = float(max(r["seconds"] for r in sel if r["views"] == 10))
+                rows.append(row)
+    print()
+    print_table(rows, ["half", "masks", "variant", *(f"iou@{n}" for n in VIEW_COUNTS), *(f"ceil@{n}" for n in VIEW_COUNTS), "iou", "of_ceiling", "max_s"])
+    print(f"total {time.perf_counter() - t0:.0f} s")
+    write_json(args.json, {"rows": rows, "per_scene": per_scene, "halves": HALVES, "configs": {k: v.to_dict() for k, v in var.items()}})
+
+
+if __name__ == "__main__":
+    main()
