@@ -81,12 +81,6 @@ def _without_outliers(cfg: Config) -> Config:
     return _variant(cfg, stages=stages)
 
 
-def _no_colour_adjacency(cfg: Config) -> Config:
-    """``cfg`` with ``smooth_adjacency``'s colour test switched off."""
-    stages = [[{k: ({**v, "color": None} if k == "smooth_adjacency" else v) for k, v in e.items()} for e in stage] for stage in cfg.to_dict()["stages"]]
-    return _variant(cfg, stages=stages)
-
-
 def variants() -> dict[str, Config]:
     base = Config.preset("rgbd")
     stages = base.to_dict()["stages"]
@@ -103,7 +97,7 @@ def variants() -> dict[str, Config]:
         "robust preset, gaec with cannot-links of weight 2": _variant(Config.preset("robust"), contractor={"gaec": {"repulsion": 2.0}}),
         "robust preset, gaec, fragments (< 300 px) join one cluster": _variant(Config.preset("robust"), contractor={"gaec": {"fragment_area": 300.0}}),
         "robust preset + per-pixel refinement": _variant(Config.preset("robust"), refine={"enabled": True}),
-        "robust preset, gaec, smooth_adjacency without its colour test": _no_colour_adjacency(_variant(Config.preset("robust"), contractor="gaec")),
+        "robust preset, gaec, smooth_adjacency without its colour test": Config.preset("multicut"),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),
         "view_consensus for pixel_match": _variant(base, stages=[["view_consensus"], *stages[1:]]),

@@ -70,16 +70,9 @@ def gt_cut(masks: list, scene) -> list:
     return out
 
 
-def _robust(contractor: object = "constrained", color: float | None | str = "preset", **update) -> Config:
-    """The ``robust`` preset with another contractor, ``smooth_adjacency`` colour test or sections."""
-    d = Config.preset("robust").to_dict()
-    d["contractor"] = contractor
-    if color != "preset":
-        d["stages"] = [
-            [{k: ({**v, "color": color} if k == "smooth_adjacency" else v) for k, v in e.items()} if isinstance(e, dict) else e for e in stage]
-            for stage in d["stages"]
-        ]
-    return Config.model_validate({**d, **update})
+def _robust(contractor: object = "constrained", **update) -> Config:
+    """The ``robust`` preset with another contractor or sections."""
+    return Config.model_validate({**Config.preset("robust").to_dict(), "contractor": contractor, **update})
 
 
 def variants() -> dict[str, Config]:
@@ -91,7 +84,7 @@ def variants() -> dict[str, Config]:
         "robust, gaec": _robust("gaec"),
         "robust, gaec repulsion 2": _robust({"gaec": {"repulsion": 2.0}}),
         "robust, gaec fragments 300 px": _robust({"gaec": {"fragment_area": 300.0}}),
-        "robust, gaec, adjacency no colour": _robust("gaec", color=None),
+        "robust, gaec, adjacency no colour": Config.preset("multicut"),
     }
 
 

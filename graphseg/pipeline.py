@@ -208,9 +208,7 @@ def run(
     Result
         ``info["pipeline"]`` names the backends and holds per-step timings.
     """
-    from .method.baselines import method_config
-
-    cfg = method_config(config)  # the stages config.method runs: evidence is computed for them
+    cfg = (config or Config()).for_method()  # the stages config.method runs: evidence is computed for them
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()

@@ -504,7 +504,7 @@ class CoreAttachContraction:
         return core_attach_contraction(attract, num_nodes, core=core, weight=strength, cannot_link=cannot)
 
 
-class GreedyAdditiveContraction(_SignedContraction):
+class GreedyAdditiveContraction:
     """Contractor: :func:`greedy_additive_contraction` (strengths summed per cluster pair) on a graph's signed edges.
 
     Examples
@@ -514,6 +514,7 @@ class GreedyAdditiveContraction(_SignedContraction):
     """
 
     name = "gaec"
+    uses_edge_attr = True
     uses_node_attr = True
 
     class Options(BaseModel):

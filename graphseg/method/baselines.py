@@ -44,12 +44,12 @@ def _with(config: Config | None, **update: Any) -> Config:
 
 def maskclustering(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches], config: Config | None = None) -> Result:
     """MaskClustering-style view-consensus clustering (3 rounds, components contraction)."""
-    return segment(scene, masks, matches, method_config(_with(config, method="maskclustering")))
+    return segment(scene, masks, matches, _with(config, method="maskclustering"))  # segment() runs the method's stages
 
 
 def sam3d(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches], config: Config | None = None) -> Result:
     """SAM3D-style bidirectional-overlap merging (one stage, components contraction)."""
-    return segment(scene, masks, matches, method_config(_with(config, method="sam3d")))
+    return segment(scene, masks, matches, _with(config, method="sam3d"))
 
 
 def method_config(config: Config | None = None) -> Config:
@@ -74,4 +74,4 @@ def run_method(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int],
     >>> run_method(*two_boxes_scene(), Config(method="maskclustering")).config.stage_names()[0]
     ['view_consensus']
     """
-    return segment(scene, masks, matches, method_config(config), **kw)
+    return segment(scene, masks, matches, config, **kw)

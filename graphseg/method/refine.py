@@ -50,7 +50,8 @@ def project_to_view(
     -------
     seen : bool ``[N]``
     v, u : int64 ``[N]``
-        Pixel row and column (meaningful where ``seen``).
+        Pixel row and column (rounded); -1 for points behind the camera, and
+        outside ``[0, H) x [0, W)`` for points beside the image.
 
     Notes
     -----

@@ -41,7 +41,7 @@ from ..result import Result
 from ..scene import Matches, Scene, SceneError
 from .background import background_masks
 from .masks import compose_masks, paint_masks
-from .refine import refine_labels
+from .refine import project_to_view, refine_labels
 
 __all__ = ["segment", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -239,23 +239,13 @@ def confirming_labels(
     for w, ((K, T), pm, fg) in enumerate(zip(cameras, points, foreground)):
         if w == view or K is None or T is None or len(P) == 0:
             continue
-        T = np.asarray(T, np.float64)
-        cam = (P - T[:3, 3]) @ T[:3, :3]
-        z = cam[:, 2]
-        front = z > 0
-        if not front.any():
-            continue
-        uvw = cam[front] @ np.asarray(K, np.float64).T
-        u = np.rint(uvw[:, 0] / uvw[:, 2]).astype(np.int64)
-        v = np.rint(uvw[:, 1] / uvw[:, 2]).astype(np.int64)
+        seen, v, u = project_to_view(P, K, T, pm, tolerance=tolerance)
         h, wd = fg.shape
-        inside = (u >= 0) & (u < wd) & (v >= 0) & (v < h)
+        inside = (u >= 0) & (u < wd) & (v >= 0) & (v < h)  # in front of the camera and in the image
         if not inside.any():
             continue
-        u, v, zf = u[inside], v[inside], z[front][inside]
-        q = np.asarray(pm[v, u], np.float64)
-        zq = (q - T[:3, 3]) @ T[:3, :3][:, 2]
-        ok = fg[v, u] & (np.abs(zq - zf) <= tolerance * zf)
+        v, u, seen = v[inside], u[inside], seen[inside]
+        ok = fg[v, u] & seen
         if ok.mean() >= min_share:
             out += 1
             if labels is not None:
