@@ -86,12 +86,14 @@ def rgb_scene(n=3):
 def test_lifter_shapes_and_nominal_scale(onnx_pair):
     _, scene = rgb_scene()
     lifter = DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"), iterations=2)
-    assert lifter.fixed_hw == (64, 80)
+    assert lifter.fixed_hw == (48, 80)  # DUSt3R's load_images: 48x64 -> 60x80 -> centre crop to 48x80 from row 6
     out = lifter(scene)
     assert out.meta["lifter"] == "dust3r" and out.meta["scale"]["method"] == "nominal-distance" and not out.meta["scale"]["metric"]
     for v in out.views:
         assert v.points.shape == (48, 64, 3) and v.confidence.shape == (48, 64) and v.K.shape == (3, 3)
-        assert np.isfinite(v.points).all() and (v.confidence >= 1).all()
+        valid = np.isfinite(v.points).all(-1)
+        assert valid[5:43].all() and not valid[:5].any() and not valid[43:].any()  # the rows the crop cut off are invalid
+        assert (v.confidence[valid] >= 1).all() and (v.confidence[~valid] == 0).all()
         v.validate()
 
 
