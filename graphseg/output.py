@@ -7,6 +7,8 @@
       labels/VIEW.png        uint16 object ids, consistent across views (0 = background)
       overlays/VIEW.png      RGB with coloured objects and their ids
       objects/OBJ.ply        per-object points and colours (OBJ = 001, 002, ...; never empty)
+      objects/OBJ_mesh.ply   per-object mesh fused from all views (open3d installed; graphseg.objects3d)
+      objects.json           per object: views, points, centroid, boxes, mesh file (or null and why)
       graphs/stageS.graphml  one GraphML per stage S = 0, 1, ... (the graph with that stage's edges)
       result.npz             the native result file (Result.load)
       config.yaml            the configuration used
@@ -19,7 +21,7 @@ A user's files are never deleted or overwritten:
 
 * graphseg writes only to a path that does not exist, or to an earlier graphseg
   output of the same kind, recognised by its marker file ``.graphseg-output``
-  (JSON: ``{"kind": "run" | "synth" | "demo" | "export" | "batch", "version": 1,
+  (JSON: ``{"kind": "run" | "synth" | "demo" | "export" | "batch" | "store", "version": 1,
   "graphseg": VERSION, "dirs": [...], "files": {PATH: [SIZE, MTIME_NS], ...}}``;
   ``dirs`` and ``files``, the manifest of every folder and file graphseg wrote
   there, are written when the folder is complete; markers without them, from
@@ -108,7 +110,7 @@ RESULT_FILE = "result.npz"
 #: Name of the marker file inside every folder graphseg writes.
 MARKER = ".graphseg-output"
 #: Kinds of output folder.
-KINDS = ("run", "synth", "demo", "export", "batch")
+KINDS = ("run", "synth", "demo", "export", "batch", "store")
 MARKER_VERSION = 1
 _TMP = ".graphseg-tmp-"
 _OLD = ".graphseg-old-"
@@ -652,6 +654,9 @@ def fill_output(
         write_png(tmp / "overlays" / f"{files[v]}.png", ov)
         overlays.append(ov)
     write_object_clouds(result, tmp / "objects")
+    from .objects3d import write_objects
+
+    write_objects(tmp, scene, result)
     for s, g in enumerate(result.graphs):
         write_graphml(g, tmp / "graphs" / f"stage{s}.graphml")
     result.save(tmp / RESULT_FILE)
