@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result", "run_job", "evaluate_output"]
 

@@ -1,4 +1,7 @@
-"""Geometry shared by the method and the backends: plane fitting and surface normals.
+"""Geometry shared by the method and the backends: plane fitting, the table plane, surface normals, view pairs.
+
+:func:`select_pairs` chooses the view pairs to match by camera pose (see
+:mod:`graphseg.method.pairs`, which documents the modes and re-exports it).
 
 Examples
 --------
@@ -12,11 +15,21 @@ Examples
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["fit_plane_ransac", "point_normals"]
+__all__ = ["fit_plane_ransac", "fit_table_plane", "point_normals", "TablePlaneSettings", "pose_distance", "scene_scale", "select_pairs"]
+
+
+class TablePlaneSettings(Protocol):
+    """What :func:`fit_table_plane` reads from its settings (:class:`graphseg.config.BackgroundConfig` has it all)."""
+
+    ransac_sample: int
+    ransac_iterations: int
+    plane_tolerance: float
+    min_plane_fraction: float
 
 
 def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
@@ -121,3 +134,134 @@ def fit_plane_ransac(
         offset = float(-normal @ centroid)
         inliers = np.abs(p @ normal + offset) <= threshold
     return normal, offset, inliers
+
+
+def fit_table_plane(
+    flat_points: Sequence[np.ndarray],
+    pool: Sequence[np.ndarray],
+    cam_centers: Sequence[np.ndarray] | None,
+    config: TablePlaneSettings,
+    *,
+    rng: Any = None,
+) -> tuple[np.ndarray, float] | None:
+    """The table plane ``(normal [3], offset)`` by RANSAC, cameras on its positive side.
+
+    Parameters
+    ----------
+    flat_points : list of float ``[P_v, 3]``
+        Points per view.
+    pool : list of int arrays
+        Indices of the valid points of each view to sample from.
+    cam_centers : list of ``[3]`` or None
+        Orient the plane so the cameras lie on its positive side.
+    config : TablePlaneSettings
+        Anything with ``ransac_sample``, ``ransac_iterations``,
+        ``plane_tolerance`` and ``min_plane_fraction``: the method's
+        :class:`graphseg.config.BackgroundConfig`, where their defaults live.
+    rng : None, int or Generator, keyword-only
+
+    Returns
+    -------
+    (normal, offset) or None
+        None when fewer than ``min_plane_fraction`` of the sample are inliers.
+
+    Examples
+    --------
+    >>> ys, xs = np.mgrid[0:20, 0:20] * 0.01
+    >>> table = np.stack([xs, ys, np.zeros_like(xs)], -1).reshape(-1, 3)
+    >>> from graphseg.config import BackgroundConfig
+    >>> n, d = fit_table_plane([table], [np.arange(400)], [np.array([0, 0, 1.0])], BackgroundConfig(), rng=0)
+    >>> np.round(n, 3).tolist(), round(d, 3)
+    ([0.0, 0.0, 1.0], 0.0)
+    """
+    gen = np.random.default_rng(rng)
+    allp = np.concatenate([np.asarray(f)[i] for f, i in zip(flat_points, pool)])
+    if len(allp) < 3:
+        return None
+    take = gen.choice(len(allp), size=min(config.ransac_sample, len(allp)), replace=False)
+    sample = allp[take].astype(np.float64)
+    normal, offset, inl = fit_plane_ransac(sample, threshold=config.plane_tolerance, iterations=config.ransac_iterations, rng=gen)
+    if inl.mean() < config.min_plane_fraction:
+        return None
+    if cam_centers is not None and len(cam_centers):
+        side = np.mean([float(np.asarray(c) @ normal + offset) for c in cam_centers])
+        if side < 0:
+            normal, offset = -normal, -offset
+    return normal, float(offset)
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Rotation angle (rad) and translation distance between two ``cam_to_world`` poses."""
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    r = a[:3, :3].T @ b[:3, :3]
+    cos = np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)
+    return float(np.arccos(cos)), float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
+
+
+def scene_scale(points: Sequence[np.ndarray | None], cam_to_world: Sequence[np.ndarray | None]) -> float:
+    """Median over views of the median distance from the camera to its valid points (metres).
+
+    Falls back to the median distance between camera centres (or 1.0) without points.
+    """
+    meds = []
+    for p, T in zip(points, cam_to_world):
+        if p is None:
+            continue
+        q = np.asarray(p, np.float32).reshape(-1, 3)[::7]
+        q = q[np.isfinite(q).all(1)]
+        if len(q):
+            meds.append(float(np.median(np.linalg.norm(q - np.asarray(T, np.float32)[:3, 3], axis=1))))
+    if meds:
+        return float(np.median(meds))
+    c = np.array([np.asarray(T)[:3, 3] for T in cam_to_world])
+    if len(c) > 1:
+        d = np.linalg.norm(c[:, None] - c[None], axis=-1)
+        return float(np.median(d[np.triu_indices(len(c), 1)])) or 1.0
+    return 1.0
+
+
+def select_pairs(
+    cam_to_world: Sequence[np.ndarray | None],
+    *,
+    mode: str = "pose",
+    max_rotation: float = 1.2,
+    max_translation: float | None = None,
+    translation_scale: float = 1.0,
+    scale: float | None = None,
+    auto_max_views: int = 8,
+) -> list[tuple[int, int]]:
+    """View pairs ``(i, j)``, ``i < j``, to match.
+
+    Parameters
+    ----------
+    cam_to_world : list of ``[4, 4]`` (or None when unknown)
+    mode : {"pose", "all", "auto"}
+        Without poses every pair is returned whatever the mode. ``auto``:
+        ``all`` up to ``auto_max_views`` views, else ``pose``.
+    max_rotation : float
+        Radians.
+    max_translation : float, optional
+        Metres; default ``translation_scale * scale``.
+    scale : float, optional
+        Scene scale (see :func:`scene_scale`); 1.0 when not given.
+
+    Notes
+    -----
+    O(N^2) pose comparisons.
+    """
+    n = len(cam_to_world)
+    everything = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    if mode not in ("pose", "all", "auto"):
+        raise ValueError(f"unknown pair mode {mode!r}; choose 'pose', 'all' or 'auto'")
+    if mode == "auto":
+        mode = "all" if n <= auto_max_views else "pose"
+    if mode == "all" or any(T is None for T in cam_to_world):
+        return everything
+    t_max = max_translation if max_translation is not None else translation_scale * (scale if scale is not None else 1.0)
+    out = []
+    for i, j in everything:
+        rot, trans = pose_distance(cam_to_world[i], cam_to_world[j])  # type: ignore[arg-type]
+        if rot <= max_rotation and trans <= t_max:
+            out.append((i, j))
+    return out

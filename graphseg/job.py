@@ -112,21 +112,20 @@ def resolve_backends(
     SceneError
         When a backend rejects its options (field ``backends.options.NAME``).
     """
-    from .backends.registry import lifters, matchers, segmenters
-    from .pipeline import _resolve
+    from .pipeline import backend_registry, resolve_backend
 
     out: dict[str, Any] = {}
-    plan: list[tuple[str, Any, Any, dict[str, Any] | None]] = [
-        ("segmenter", segmenters, segmenter or config.backends.segmenter, {"seed": config.seed}),
-        ("matcher", matchers, matcher or config.backends.matcher, {"num_matches": config.backends.num_matches, "seed": config.seed}),
+    plan: list[tuple[str, Any]] = [
+        ("segmenter", segmenter or config.backends.segmenter),
+        ("matcher", matcher or config.backends.matcher),
     ]
     if need_lifter or lifter is not None:
-        plan.append(("lifter", lifters, lifter or config.backends.lifter, None))
-    for kind, registry, spec, extra in plan:
+        plan.append(("lifter", lifter or config.backends.lifter))
+    for kind, spec in plan:
         if isinstance(spec, str):
-            registry.get(spec)  # PluginNotFoundError / MissingDependencyError first
+            backend_registry(kind).get(spec)  # PluginNotFoundError / MissingDependencyError first
         try:
-            out[kind] = _resolve(registry, spec, config, extra)
+            out[kind] = resolve_backend(kind, spec, config)
         except (TypeError, ValueError) as err:
             if isinstance(err, SceneError):
                 raise

@@ -159,7 +159,7 @@ def _write_marker(folder: Path, kind: str, *, manifest: bool = False) -> None:
     gets a marker without a manifest: it will be kept as a backup, not
     deleted, when replaced.
     """
-    from . import __version__
+    from ._version import __version__
 
     doc: dict[str, Any] = {"kind": kind, "version": MARKER_VERSION, "graphseg": __version__}
     text = json.dumps(doc)

@@ -26,7 +26,56 @@ from .method.segment import segment
 from .result import Result
 from .scene import Matches, Scene
 
-__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare"]
+__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry"]
+
+#: The backend kinds and their registries (entry-point groups ``graphseg.segmenters``, ...).
+BACKEND_REGISTRIES: dict[str, Any] = {"segmenter": segmenters, "matcher": matchers, "lifter": lifters, "features": feature_registry}
+
+
+def backend_registry(kind: str) -> Any:
+    """The registry of a backend kind: ``segmenter``, ``matcher``, ``lifter`` or ``features``."""
+    if kind not in BACKEND_REGISTRIES:
+        raise ValueError(f"unknown backend kind {kind!r}; choose from {', '.join(BACKEND_REGISTRIES)}")
+    return BACKEND_REGISTRIES[kind]
+
+
+def _run_settings(kind: str, cfg: Config) -> dict[str, Any]:
+    """Run-wide settings a backend of ``kind`` gets when its constructor takes them (and its options do not set them)."""
+    if kind == "segmenter":
+        return {"seed": cfg.seed}
+    if kind == "matcher":
+        return {"num_matches": cfg.backends.num_matches, "seed": cfg.seed}
+    return {}
+
+
+def resolve_backend(kind: str, spec: Any, config: Config | None = None) -> Any:
+    """A backend instance from a registered name, a class or an instance (the one rule of the pipeline and :mod:`graphseg.job`).
+
+    Parameters
+    ----------
+    kind : {"segmenter", "matcher", "lifter", "features"}
+    spec : str, type or object
+        A name is built with ``config.backends.options[name]``, plus the
+        run-wide settings its constructor takes and the options leave unset
+        (segmenters: ``seed``; matchers: ``num_matches`` and ``seed``). A class
+        is built with no options; an instance is returned as is.
+    config : Config, optional
+        Default ``Config()``.
+
+    Raises
+    ------
+    PluginNotFoundError
+        For an unknown name (the message lists the installed choices).
+    TypeError, ValueError
+        When the backend rejects its options.
+
+    Examples
+    --------
+    >>> resolve_backend("matcher", "reprojection", Config(seed=3)).seed
+    3
+    """
+    cfg = config or Config()
+    return _resolve(backend_registry(kind), spec, cfg, _run_settings(kind, cfg))
 
 
 def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None = None) -> Any:
@@ -71,7 +120,7 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
     default = cfg.backends.lifter
     if lifter is None and default == "rgbd" and not scene.has_depth:
         default = "sfm"  # RGB-only: structure from motion + stereo (graphseg.backends.sfm)
-    lifted = _resolve(lifters, lifter or default, cfg)(scene)
+    lifted = resolve_backend("lifter", lifter or default, cfg)(scene)
     lifted.meta["lifter"] = _name(lifter, default)
     return lifted
 
@@ -79,7 +128,7 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
 def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = None, *, progress: bool = False) -> list[Any]:
     """One mask set per view from the segmenter."""
     cfg = config or Config()
-    seg = _resolve(segmenters, segmenter or cfg.backends.segmenter, cfg, {"seed": cfg.seed})
+    seg = resolve_backend("segmenter", segmenter or cfg.backends.segmenter, cfg)
     return [seg(v) for v in _progress(scene.views, "segment", progress)]
 
 
@@ -93,7 +142,7 @@ def compute_matches(
 ) -> dict[tuple[int, int], Matches]:
     """Matches for the selected view pairs (``config.pairs``)."""
     cfg = config or Config()
-    m = _resolve(matchers, matcher or cfg.backends.matcher, cfg, {"num_matches": cfg.backends.num_matches, "seed": cfg.seed})
+    m = resolve_backend("matcher", matcher or cfg.backends.matcher, cfg)
     if pairs is None:
         poses = [v.cam_to_world for v in scene.views]
         scale = scene_scale([v.points for v in scene.views], poses) if all(p is not None for p in poses) else None
@@ -221,7 +270,7 @@ def run(
     feats = None
     if "features" in cfg.requires():
         t = time.perf_counter()
-        fx = _resolve(feature_registry, features or cfg.backends.features, cfg)
+        fx = resolve_backend("features", features or cfg.backends.features, cfg)
         feats = [fx(v) for v in _progress(scene.views, "features", progress)]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()

@@ -136,8 +136,8 @@ def render_report(
             if mean.get("pq") is not None:
                 pq = f"; panoptic quality {_fmt(mean['pq'])} (SQ {_fmt(mean.get('sq'))} &times; RQ {_fmt(mean.get('rq'))}: extra and missed objects count)"
             rows += f"<p>objects: {int(metrics['num_pred'])} predicted, {int(metrics.get('num_gt', 0))} true{pq}</p>"
-    if audit is not None:  # optional edge audit section (graphseg.audit)
-        from .audit import audit_html
+    if audit is not None:  # optional edge audit section (the data of graphseg.audit.audit)
+        from .render_audit import audit_html
 
         rows += audit_html(audit)
     items = "".join(

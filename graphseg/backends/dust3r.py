@@ -375,7 +375,7 @@ class DUSt3RLifter:
         return {"pts3d1": p1, "conf1": c1, "pts3d2": p2, "conf2": c2, "geometry": g}
 
     def _pairs(self, scene: Scene) -> list[tuple[int, int]]:
-        from ..method.pairs import scene_scale, select_pairs
+        from ..geometry import scene_scale, select_pairs
 
         poses = [v.cam_to_world for v in scene.views]
         if self.options.pair_mode == "pose" and all(T is not None for T in poses):

@@ -68,7 +68,7 @@ def validate_options(model: type[BaseModel], options: dict[str, Any], backend: s
         For an unknown key (the message lists the valid keys and the closest
         one), a bad value, or a float that is NaN or infinite.
     """
-    from ..graphs.criterion import did_you_mean, non_finite
+    from ..validation import did_you_mean, non_finite
 
     try:
         checked = model(**options)

@@ -40,9 +40,9 @@ from typing import Any
 
 import numpy as np
 
-from ..config import BackgroundConfig
-from ..geometry import point_normals
-from ..method.background import fit_table_plane
+from ..background_config import BackgroundConfig
+from ..geometry import fit_table_plane, point_normals
+from ..io.precomputed import read_masks, write_masks
 from ..scene import SceneError, View
 from .parts import split_mask
 
@@ -120,7 +120,7 @@ def geometric_segments(
         For colour edges.
     background : BackgroundConfig, optional
         The table plane and distance limit, found by the method's own code
-        (:func:`graphseg.method.background.fit_table_plane`) with the same
+        (:func:`graphseg.geometry.fit_table_plane`) with the same
         constants as the background step, except a tighter ``plane_tolerance``
         of 1 cm (default :data:`SEGMENTER_PLANE`; measured: with the method's
         1.5 cm the geometric segmenter's mean IoU drops 0.5-1.2 points on
@@ -179,7 +179,7 @@ def geometric_segments(
     dist = np.linalg.norm(np.where(valid[..., None], P, 0), axis=-1)
     bgc = background or SEGMENTER_PLANE
     if valid.sum() >= 50:
-        # the method's own table-plane code and constants (graphseg.method.background)
+        # the method's own table-plane code and constants (graphseg.geometry.fit_table_plane)
         flat = P.reshape(-1, 3)
         vidx = np.flatnonzero(valid.reshape(-1))
         plane = fit_table_plane([flat], [vidx], [np.zeros(3)], bgc, rng=rng) if bgc.plane else None
@@ -391,62 +391,13 @@ class GeometricSegmenter:
         return geometric_segments(pts, view.rgb, rng=self.seed, edges=edges, **self.options)
 
 
-def save_precomputed(folder: str | os.PathLike[str], name: str, masks: list[np.ndarray] | np.ndarray) -> Path:
-    """Write one view's masks: a label image as 16-bit ``NAME.png``, a list/stack of bool masks as ``NAME.npz``."""
-    import cv2
-
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
-    arr = masks if isinstance(masks, np.ndarray) else np.stack([np.asarray(m, bool) for m in masks])
-    if arr.ndim == 2:
-        if arr.min(initial=0) < 0 or arr.max(initial=0) >= 2**16:
-            raise ValueError("label images must hold values in [0, 65535]")
-        path = folder / f"{name}.png"
-        cv2.imwrite(str(path), arr.astype(np.uint16))
-    else:
-        path = folder / f"{name}.npz"
-        np.savez_compressed(path, masks=arr.astype(bool))
-    return path
-
-
-def load_precomputed(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[np.ndarray]:
-    """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image)."""
-
-    folder = Path(folder)
-    if not any((folder / f"{name}{s}").is_file() for s in (".npz", ".png")):
-        from ..io.precomputed import (
-            encode_name,  # names saved by graphseg.io.precomputed.save_inputs
-        )
-
-        name = encode_name(name)
-    npz, png = folder / f"{name}.npz", folder / f"{name}.png"
-    if npz.exists():
-        from ..graphs import GraphValidationError
-        from ..graphs.native import check_npz_sizes
-
-        try:
-            check_npz_sizes(npz)
-            with np.load(npz, allow_pickle=False) as z:
-                if "masks" not in z.files:
-                    raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
-                arr = z["masks"]
-        except (GraphValidationError, ValueError, OSError, EOFError) as err:
-            if isinstance(err, SceneError):
-                raise
-            text = (str(err) or type(err).__name__).splitlines()[0].replace(f"{npz}: ", "")
-            raise SceneError(f"cannot read .npz ({text})", where=str(npz), field="masks") from err
-        if arr.ndim != 3 or arr.dtype.kind not in "biu":
-            raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
-        return list(arr.astype(bool))
-    if png.exists():
-        from ..io.images import read_label
-
-        return read_label(png, field="masks")  # pixel budget, clean errors, no OpenCV log lines
-    raise SceneError(f"no masks for view {name!r} ({npz.name} or {png.name})", where=str(folder), field="masks")
+#: The mask files are an io format (:mod:`graphseg.io.precomputed`); these names stay for one release.
+save_precomputed = write_masks
+load_precomputed = read_masks
 
 
 class PrecomputedSegmenter:
-    """Masks read from ``folder`` by view name (see :func:`load_precomputed`)."""
+    """Masks read from ``folder`` by view name (see :func:`graphseg.io.precomputed.read_masks`)."""
 
     name = "precomputed"
 
@@ -456,7 +407,7 @@ class PrecomputedSegmenter:
         self.folder = Path(folder)
 
     def __call__(self, view: View) -> np.ndarray | list[np.ndarray]:
-        masks = load_precomputed(self.folder, view.name)
+        masks = read_masks(self.folder, view.name)
         shape = masks.shape if isinstance(masks, np.ndarray) else (masks[0].shape if masks else view.shape)
         if tuple(shape) != view.shape:
             raise SceneError(f"masks are {list(shape)} but the image is {list(view.shape)}", where=str(self.folder / view.name), field="masks")

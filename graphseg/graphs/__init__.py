@@ -29,6 +29,7 @@ from .contract import (
     scipy_contraction,
     union_find_contraction,
 )
+from .contractor import BaseContractor, run_contractor
 from .criterion import (
     REDUCTIONS,
     REQUIRES,
@@ -51,7 +52,6 @@ from .interop import from_networkx, from_pyg, read_graphml, to_networkx, to_pyg,
 from .native import NativeFile, load_graph, load_native, save_graph, save_native
 from .pixel_match import PixelMatch, pair_counts, pixel_match_edges, pixel_match_ratios
 from .registry import contractors, criteria, edge_adders
-from .signed import run_contractor
 
 __all__ = [
     "CorrespondenceGraph",
@@ -76,6 +76,7 @@ __all__ = [
     "StarContraction",
     "UnionFindContraction",
     "ScipyContraction",
+    "BaseContractor",
     "run_contractor",
     "coarsen",
     "group_reduce",

@@ -20,7 +20,8 @@ Examples
 >>> import numpy as np
 >>> lab = np.array([[0, 0, 1, 1]])
 >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = [0.0, 0.001, 0.002, 0.003]  # one flat surface
->>> smooth_adjacency_links([lab], [pts], 2, min_pairs=1, concave=None).edge_index.tolist()  # one row: no normals
+>>> opts = {**SmoothAdjacency.Options().model_dump(), "min_pairs": 1, "concave": None}  # the defaults live in Options
+>>> smooth_adjacency_links([lab], [pts], 2, **opts).edge_index.tolist()  # one row: no normals
 [[0], [1]]
 """
 
@@ -44,14 +45,14 @@ def smooth_adjacency_links(
     points: Sequence[np.ndarray | None],
     num_nodes: int,
     *,
-    jump: float | None = 0.02,
-    concave: float | None = 0.2,
-    max_separated: float = 0.1,
-    min_pairs: int = 30,
-    reach: int = 3,
-    normal_step: int = 3,
+    jump: float | None,
+    concave: float | None,
+    max_separated: float,
+    min_pairs: int,
+    reach: int,
+    normal_step: int,
     rgb: Sequence[np.ndarray] | None = None,
-    color: float | None = 20.0,
+    color: float | None,
     normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Attractive edges between nodes that touch along a long, smooth, convex boundary.
@@ -73,7 +74,7 @@ def smooth_adjacency_links(
     rgb : list of uint8 ``[H, W, 3]``, optional
     color : float, optional
         With ``rgb``: a colour edge (CIE a*b* difference) is a separation. The
-        default was measured: without it, objects that touch along a flat
+        default (:class:`SmoothAdjacency.Options`) was measured: without it, objects that touch along a flat
         contact (a can against a block on YCB-Video 0002) join; 20 is the middle
         of the range (15-25) that leaves YCB unchanged, and above 15 the
         shading of one synthetic object no longer splits it
@@ -87,6 +88,8 @@ def smooth_adjacency_links(
         views): a short contact is no evidence.
     normals : list of float ``[H, W, 3]``, optional
         Precomputed normals at ``normal_step`` (see :func:`graphseg.graphs.repulsion.boundary_separation`).
+
+    Every option is a required keyword: the defaults live in :class:`SmoothAdjacency.Options`.
 
     Returns
     -------

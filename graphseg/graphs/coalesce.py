@@ -4,9 +4,13 @@
 and checks for overflow: when the product of the column ranges does not fit
 in int64, the rows are ranked densely instead (``np.unique`` over rows), so
 the key is always exact. :func:`group_by_key` turns keys into groups;
-:func:`coalesce` merges parallel edges with a per-column reduction (PyG's
-``coalesce``). Used by ``pixel_match``, the contractors, :func:`coarsen` and
-the Chamfer point gathering.
+:func:`group_reduce` reduces a column over groups (scatter operations);
+:func:`canonical_cluster` numbers a cluster vector's groups by first
+appearance; :func:`coalesce` merges parallel edges with a per-column
+reduction (PyG's ``coalesce``). Used by ``pixel_match``, the contractors,
+:func:`coarsen` and the Chamfer point gathering, so it imports nothing of
+graphseg but :mod:`graphseg.graphs.edge_index` (``group_reduce`` and
+``canonical_cluster`` stay importable from ``coarsen`` and ``contract``).
 
 Examples
 --------
@@ -19,13 +23,18 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["combine_keys", "count_keys", "group_by_key", "Groups", "coalesce", "KEY_LIMIT"]
+from .edge_index import GraphValidationError
+
+__all__ = ["combine_keys", "count_keys", "group_by_key", "Groups", "group_reduce", "canonical_cluster", "coalesce", "KEY_LIMIT"]
+
+#: How :func:`group_reduce` reduces a column: a name, ``("wmean", weight column)`` or ``f(values, groups, k)``.
+Reduction = str | tuple[str, str] | Callable[[np.ndarray, np.ndarray, int], np.ndarray]
 
 #: Keys are packed only while the product of the column ranges stays below this.
 KEY_LIMIT = 2**62
@@ -203,6 +212,146 @@ def count_keys(key: Any, num_keys: int | None = None) -> tuple[np.ndarray, np.nd
     return sk[starts], np.diff(np.r_[starts, k.size]).astype(np.int64)
 
 
+def canonical_cluster(cluster: Any) -> np.ndarray:
+    """Renumber component ids ``0..k-1`` in order of first appearance.
+
+    Parameters
+    ----------
+    cluster : array_like of int, shape ``[N]``
+        Any non-negative component labels.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 ``[N]``.
+
+    Notes
+    -----
+    O(N + max label): one ``np.minimum.at`` scatter, no sort over ``N``.
+
+    Examples
+    --------
+    >>> canonical_cluster([7, 2, 7, 5]).tolist()
+    [0, 1, 0, 2]
+    >>> canonical_cluster([]).tolist()
+    []
+    """
+    c = np.asarray(cluster, dtype=np.int64).reshape(-1)
+    n = c.size
+    if n == 0:
+        return c
+    if c.min() < 0:
+        raise ValueError(f"expected non-negative cluster ids (got {int(c.min())})")
+    k = int(c.max()) + 1
+    if k > 4 * n + 16:  # sparse labels: compress first
+        _, c = np.unique(c, return_inverse=True)
+        k = int(c.max()) + 1
+    first = np.full(k, n, np.int64)
+    np.minimum.at(first, c, np.arange(n, dtype=np.int64))
+    used = np.flatnonzero(first < n)
+    order = used[np.argsort(first[used], kind="stable")]
+    rank = np.full(k, -1, np.int64)
+    rank[order] = np.arange(order.size, dtype=np.int64)
+    return rank[c]
+
+
+def group_reduce(
+    values: np.ndarray,
+    groups: np.ndarray,
+    num_groups: int,
+    how: Reduction,
+    weights: np.ndarray | None = None,
+) -> np.ndarray:
+    """Reduce ``values`` (``[N]`` or ``[N, k]``) over ``groups`` (``[N]`` ints).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Rows to reduce.
+    groups : numpy.ndarray
+        int ``[N]`` group of each row, in ``[0, num_groups)``.
+    num_groups : int
+    how : str, tuple or callable
+        ``"sum"``, ``"mean"``, ``"min"``, ``"max"``, ``"first"``, ``"bbox"`` (min
+        over the first half of the columns, max over the second), ``("wmean",
+        col)`` (mean weighted by ``weights``), or ``f(values, groups, k)``.
+    weights : numpy.ndarray, optional
+        ``[N]`` weights for ``"wmean"``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[num_groups, ...]``.
+
+    Notes
+    -----
+    Scatter operations only (``bincount``, ``ufunc.at``): O(N).
+
+    Examples
+    --------
+    >>> group_reduce(np.array([1, 5, 2]), np.array([0, 1, 0]), 2, "max").tolist()
+    [2, 5]
+    >>> group_reduce(np.array([[0, 0, 1, 1], [2, 2, 3, 3]]), np.array([0, 0]), 1, "bbox").tolist()
+    [[0, 0, 3, 3]]
+    """
+    if callable(how):
+        return np.asarray(how(values, groups, num_groups))
+    values = np.asarray(values)
+    n = groups.size
+    if how == "first":
+        first = np.full(num_groups, n, np.int64)
+        np.minimum.at(first, groups, np.arange(n, dtype=np.int64))
+        return values[np.minimum(first, max(n - 1, 0))] if n else values[:0]
+    if values.dtype.kind not in "biuf":
+        raise GraphValidationError(f"cannot reduce a {values.dtype} column with {how!r}")
+    flat = values.reshape(n, -1) if n else values.reshape(0, int(np.prod(values.shape[1:], dtype=np.int64)))
+    if how == "bbox":
+        half = flat.shape[1] // 2
+        lo = group_reduce(flat[:, :half], groups, num_groups, "min")
+        hi = group_reduce(flat[:, half:], groups, num_groups, "max")
+        return np.concatenate([lo.reshape(num_groups, half), hi.reshape(num_groups, flat.shape[1] - half)], 1)
+    if how in ("sum", "mean") or (isinstance(how, tuple) and how[0] == "wmean"):
+        w = weights if isinstance(how, tuple) else None
+        if w is not None:
+            w = np.asarray(w, dtype=np.float64)
+            finite = np.isfinite(flat).all(1) & (w > 0)
+        cols = []
+        for j in range(flat.shape[1]):
+            col = flat[:, j].astype(np.float64)
+            if w is not None:
+                cols.append(np.bincount(groups[finite], weights=col[finite] * w[finite], minlength=num_groups))
+            else:
+                cols.append(np.bincount(groups, weights=col, minlength=num_groups))
+        out = np.stack(cols, 1) if cols else np.zeros((num_groups, 0))
+        if how == "sum":
+            if values.dtype.kind in "biu":
+                out = np.rint(out).astype(values.dtype if values.dtype.kind != "b" else np.int64)
+        else:
+            denom = (
+                np.bincount(groups[finite], weights=w[finite], minlength=num_groups)
+                if w is not None
+                else np.bincount(groups, minlength=num_groups).astype(np.float64)
+            )
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out = out / denom[:, None]
+        return out.reshape((num_groups,) + values.shape[1:])
+    if how in ("min", "max"):
+        op: Any
+        if flat.dtype.kind == "f":
+            init = np.inf if how == "min" else -np.inf
+            op = np.fmin if how == "min" else np.fmax
+        else:
+            info = np.iinfo(flat.dtype) if flat.dtype.kind in "iu" else np.iinfo(np.int8)
+            init = info.max if how == "min" else info.min
+            op = np.minimum if how == "min" else np.maximum
+        out = np.full((num_groups, flat.shape[1]), init, dtype=flat.dtype)
+        op.at(out, groups, flat)
+        if flat.dtype.kind == "f":
+            out[np.isinf(out) & (out == init)] = np.nan
+        return out.reshape((num_groups,) + values.shape[1:])
+    raise GraphValidationError(f"unknown reduction {how!r}")
+
+
 def coalesce(
     edge_index: Any,
     edge_attr: Mapping[str, Any] | None,
@@ -242,8 +391,6 @@ def coalesce(
     >>> ei.tolist(), attr["weight"].tolist(), attr["multiplicity"].tolist()
     ([[0], [1]], [0.7], [2])
     """
-    from .coarsen import group_reduce
-
     ei = np.asarray(edge_index, dtype=np.int64).reshape(2, -1)
     cols = {k: np.asarray(v) for k, v in (edge_attr or {}).items()}
     keep = ei[0] != ei[1]

@@ -18,17 +18,16 @@ Examples
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .coalesce import coalesce
+from .coalesce import Reduction, canonical_cluster, coalesce, group_reduce
 from .graph import CorrespondenceGraph, GraphValidationError
 
 __all__ = ["coarsen", "group_reduce", "NODE_REDUCE", "EDGE_REDUCE"]
 
-Reduction = str | tuple[str, str] | Callable[[np.ndarray, np.ndarray, int], np.ndarray]
 
 #: Default node-column reductions; ``None`` drops the column (it lives on in ``members``).
 NODE_REDUCE: dict[str, Reduction | None] = {
@@ -52,103 +51,6 @@ EDGE_REDUCE: dict[str, Reduction] = {
     "stage": "min",
     "distance": "min",
 }
-
-
-def group_reduce(
-    values: np.ndarray,
-    groups: np.ndarray,
-    num_groups: int,
-    how: Reduction,
-    weights: np.ndarray | None = None,
-) -> np.ndarray:
-    """Reduce ``values`` (``[N]`` or ``[N, k]``) over ``groups`` (``[N]`` ints).
-
-    Parameters
-    ----------
-    values : numpy.ndarray
-        Rows to reduce.
-    groups : numpy.ndarray
-        int ``[N]`` group of each row, in ``[0, num_groups)``.
-    num_groups : int
-    how : str, tuple or callable
-        ``"sum"``, ``"mean"``, ``"min"``, ``"max"``, ``"first"``, ``"bbox"`` (min
-        over the first half of the columns, max over the second), ``("wmean",
-        col)`` (mean weighted by ``weights``), or ``f(values, groups, k)``.
-    weights : numpy.ndarray, optional
-        ``[N]`` weights for ``"wmean"``.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``[num_groups, ...]``.
-
-    Notes
-    -----
-    Scatter operations only (``bincount``, ``ufunc.at``): O(N).
-
-    Examples
-    --------
-    >>> group_reduce(np.array([1, 5, 2]), np.array([0, 1, 0]), 2, "max").tolist()
-    [2, 5]
-    >>> group_reduce(np.array([[0, 0, 1, 1], [2, 2, 3, 3]]), np.array([0, 0]), 1, "bbox").tolist()
-    [[0, 0, 3, 3]]
-    """
-    if callable(how):
-        return np.asarray(how(values, groups, num_groups))
-    values = np.asarray(values)
-    n = groups.size
-    if how == "first":
-        first = np.full(num_groups, n, np.int64)
-        np.minimum.at(first, groups, np.arange(n, dtype=np.int64))
-        return values[np.minimum(first, max(n - 1, 0))] if n else values[:0]
-    if values.dtype.kind not in "biuf":
-        raise GraphValidationError(f"cannot reduce a {values.dtype} column with {how!r}")
-    flat = values.reshape(n, -1) if n else values.reshape(0, int(np.prod(values.shape[1:], dtype=np.int64)))
-    if how == "bbox":
-        half = flat.shape[1] // 2
-        lo = group_reduce(flat[:, :half], groups, num_groups, "min")
-        hi = group_reduce(flat[:, half:], groups, num_groups, "max")
-        return np.concatenate([lo.reshape(num_groups, half), hi.reshape(num_groups, flat.shape[1] - half)], 1)
-    if how in ("sum", "mean") or (isinstance(how, tuple) and how[0] == "wmean"):
-        w = weights if isinstance(how, tuple) else None
-        if w is not None:
-            w = np.asarray(w, dtype=np.float64)
-            finite = np.isfinite(flat).all(1) & (w > 0)
-        cols = []
-        for j in range(flat.shape[1]):
-            col = flat[:, j].astype(np.float64)
-            if w is not None:
-                cols.append(np.bincount(groups[finite], weights=col[finite] * w[finite], minlength=num_groups))
-            else:
-                cols.append(np.bincount(groups, weights=col, minlength=num_groups))
-        out = np.stack(cols, 1) if cols else np.zeros((num_groups, 0))
-        if how == "sum":
-            if values.dtype.kind in "biu":
-                out = np.rint(out).astype(values.dtype if values.dtype.kind != "b" else np.int64)
-        else:
-            denom = (
-                np.bincount(groups[finite], weights=w[finite], minlength=num_groups)
-                if w is not None
-                else np.bincount(groups, minlength=num_groups).astype(np.float64)
-            )
-            with np.errstate(invalid="ignore", divide="ignore"):
-                out = out / denom[:, None]
-        return out.reshape((num_groups,) + values.shape[1:])
-    if how in ("min", "max"):
-        op: Any
-        if flat.dtype.kind == "f":
-            init = np.inf if how == "min" else -np.inf
-            op = np.fmin if how == "min" else np.fmax
-        else:
-            info = np.iinfo(flat.dtype) if flat.dtype.kind in "iu" else np.iinfo(np.int8)
-            init = info.max if how == "min" else info.min
-            op = np.minimum if how == "min" else np.maximum
-        out = np.full((num_groups, flat.shape[1]), init, dtype=flat.dtype)
-        op.at(out, groups, flat)
-        if flat.dtype.kind == "f":
-            out[np.isinf(out) & (out == init)] = np.nan
-        return out.reshape((num_groups,) + values.shape[1:])
-    raise GraphValidationError(f"unknown reduction {how!r}")
 
 
 def _default_reduce(name: str, col: np.ndarray, table: Mapping[str, Reduction | None]) -> Reduction | None:
@@ -207,11 +109,8 @@ def coarsen(
     k = int(cl.max()) + 1 if n else 0
     if n and k > n:
         raise GraphValidationError(f"expected cluster ids in [0, {n}) (got max {k - 1})")
-    if n:
-        from .contract import canonical_cluster
-
-        if not np.array_equal(canonical_cluster(cl), cl):
-            raise GraphValidationError("expected a canonical cluster vector (ids 0..k-1 numbered by first appearance, none unused); pass it through canonical_cluster()")
+    if n and not np.array_equal(canonical_cluster(cl), cl):
+        raise GraphValidationError("expected a canonical cluster vector (ids 0..k-1 numbered by first appearance, none unused); pass it through canonical_cluster()")
     ntab = dict(NODE_REDUCE)
     ntab.update(node_reduce or {})
     member_count = np.bincount(cl, minlength=k).astype(np.int64)

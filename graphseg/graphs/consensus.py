@@ -39,8 +39,8 @@ def containers(
     matches: Mapping[tuple[int, int], Any],
     num_nodes: int,
     *,
-    min_matches: int = 5,
-    min_share: float = 0.5,
+    min_matches: int,
+    min_share: float,
 ) -> np.ndarray:
     """Container of every node in every view, from pixel matches.
 
@@ -69,7 +69,7 @@ def containers(
     >>> from graphseg.scene import Matches
     >>> labs = [np.array([[0, 1]]), np.array([[2, 2]])]
     >>> m = {(0, 1): Matches([[0, 0], [1, 0]], [[0, 0], [1, 0]], [1.0, 1.0])}
-    >>> containers(labs, m, 3, min_matches=1).tolist()   # node 2 splits 1:1 over 0 and 1; ties go to the lower id
+    >>> containers(labs, m, 3, min_matches=1, min_share=0.5).tolist()   # node 2 splits 1:1 over 0 and 1; ties go to the lower id
     [[0, 2], [1, 2], [0, 2]]
     """
     n_views = len(node_labels)
@@ -102,12 +102,16 @@ def containers(
     return out
 
 
-def consensus_pairs(container: np.ndarray, *, min_views: int = 2, threshold: float = 0.9, below: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def consensus_pairs(container: np.ndarray, *, min_views: int, threshold: float, below: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs whose consensus reaches ``threshold`` over at least ``min_views`` views.
 
     Parameters
     ----------
     container : int ``[N, V]`` from :func:`containers`
+    min_views : int
+        Views in which both nodes need a container.
+    threshold : float
+        Consensus a pair needs (at least, or with ``below`` at most).
     below : bool
         Return the pairs whose consensus is at most ``threshold`` instead.
 
@@ -141,18 +145,21 @@ def view_consensus_edges(
     matches: Mapping[tuple[int, int], Any],
     num_nodes: int,
     *,
-    threshold: float = 0.9,
-    min_views: int = 2,
-    min_matches: int = 5,
-    min_share: float = 0.5,
-    attract: bool = True,
-    repel_below: float | None = None,
+    threshold: float,
+    min_views: int,
+    min_matches: int,
+    min_share: float,
+    attract: bool,
+    repel_below: float | None,
 ) -> EdgeSet:
     """Edges between nodes whose view consensus reaches ``threshold``.
 
     With ``repel_below``, pairs whose consensus is at most that value (over at
     least ``min_views`` views) also get cannot-link edges (``sign = -1``,
-    ``weight = 1 - consensus``); ``attract=False`` keeps only those.
+    ``weight = 1 - consensus``); ``attract=False`` keeps only those. Every
+    option is a required keyword: the defaults live in :class:`ViewConsensus.Options`
+    (``min_matches`` and ``min_share`` go to :func:`containers`, ``min_views``
+    and ``threshold`` to :func:`consensus_pairs`).
 
     Returns
     -------

@@ -21,10 +21,11 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
-from .coalesce import combine_keys
-from .criterion import NoOptions
+from .coalesce import canonical_cluster, combine_keys
+from .contractor import BaseContractor
 from .graph import as_edge_index
 
+# canonical_cluster (now in coalesce) stays importable from here
 __all__ = [
     "canonical_cluster",
     "randomized_star_contraction",
@@ -34,49 +35,6 @@ __all__ = [
     "UnionFindContraction",
     "ScipyContraction",
 ]
-
-
-def canonical_cluster(cluster: Any) -> np.ndarray:
-    """Renumber component ids ``0..k-1`` in order of first appearance.
-
-    Parameters
-    ----------
-    cluster : array_like of int, shape ``[N]``
-        Any non-negative component labels.
-
-    Returns
-    -------
-    numpy.ndarray
-        int64 ``[N]``.
-
-    Notes
-    -----
-    O(N + max label): one ``np.minimum.at`` scatter, no sort over ``N``.
-
-    Examples
-    --------
-    >>> canonical_cluster([7, 2, 7, 5]).tolist()
-    [0, 1, 0, 2]
-    >>> canonical_cluster([]).tolist()
-    []
-    """
-    c = np.asarray(cluster, dtype=np.int64).reshape(-1)
-    n = c.size
-    if n == 0:
-        return c
-    if c.min() < 0:
-        raise ValueError(f"expected non-negative cluster ids (got {int(c.min())})")
-    k = int(c.max()) + 1
-    if k > 4 * n + 16:  # sparse labels: compress first
-        _, c = np.unique(c, return_inverse=True)
-        k = int(c.max()) + 1
-    first = np.full(k, n, np.int64)
-    np.minimum.at(first, c, np.arange(n, dtype=np.int64))
-    used = np.flatnonzero(first < n)
-    order = used[np.argsort(first[used], kind="stable")]
-    rank = np.full(k, -1, np.int64)
-    rank[order] = np.arange(order.size, dtype=np.int64)
-    return rank[c]
 
 
 def _dedupe(a: np.ndarray, b: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -243,7 +201,7 @@ def scipy_contraction(edge_index: Any, num_nodes: int) -> np.ndarray:
     return canonical_cluster(labels)
 
 
-class StarContraction:
+class StarContraction(BaseContractor):
     """Randomized star contraction as a contractor object (registered as ``star``).
 
     Parameters
@@ -264,11 +222,9 @@ class StarContraction:
     """
 
     name = "star"
-    Options = NoOptions
-    uses_edge_attr = False
 
-    def __init__(self, options: BaseModel | None = None) -> None:
-        self.options = options or self.Options()
+    def __init__(self, options: BaseModel | None = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         self.rounds_: int | None = None
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
@@ -276,29 +232,19 @@ class StarContraction:
         return cluster
 
 
-class UnionFindContraction:
+class UnionFindContraction(BaseContractor):
     """Union-find contraction as a contractor object (``rng`` is ignored)."""
 
     name = "union_find"
-    Options = NoOptions
-    uses_edge_attr = False
-
-    def __init__(self, options: BaseModel | None = None) -> None:
-        self.options = options or self.Options()
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
         return union_find_contraction(edge_index, num_nodes)
 
 
-class ScipyContraction:
+class ScipyContraction(BaseContractor):
     """scipy csgraph connected components as a contractor object (``rng`` ignored)."""
 
     name = "scipy"
-    Options = NoOptions
-    uses_edge_attr = False
-
-    def __init__(self, options: BaseModel | None = None) -> None:
-        self.options = options or self.Options()
 
     def __call__(self, edge_index: Any, num_nodes: int, *, rng: Any = None) -> np.ndarray:
         return scipy_contraction(edge_index, num_nodes)

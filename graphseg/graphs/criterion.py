@@ -36,18 +36,25 @@ Examples
 >>> build_criterion(Everything, {"weigth": 2})
 Traceback (most recent call last):
 ...
-graphseg.graphs.criterion.CriterionOptionsError: everything: unknown option 'weigth'; valid options: weight; did you mean 'weight'?
+graphseg.validation.CriterionOptionsError: everything: unknown option 'weigth'; valid options: weight; did you mean 'weight'?
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import BaseModel
 
+from ..validation import (  # defined in graphseg.validation (shared with contractors and backends), re-exported
+    CriterionOptionsError,
+    NoOptions,
+    did_you_mean,
+    non_finite,
+    options_from,
+    validate_options,
+)
 from .evidence import EdgeSet, Evidence
 from .graph import CorrespondenceGraph
 
@@ -85,16 +92,6 @@ REDUCTIONS: tuple[str, ...] = ("sum", "max", "min", "mean", "first")
 DIMENSIONS: tuple[str, ...] = ("2d", "3d", "any")
 
 
-class CriterionOptionsError(ValueError):
-    """Raised when options do not fit a criterion's ``Options``; names the key and the valid ones."""
-
-
-class NoOptions(BaseModel):
-    """``Options`` of a criterion (or contractor) without options."""
-
-    model_config = ConfigDict(extra="forbid")
-
-
 class Criterion:
     """Base class of edge criteria (see the module docstring for the contract).
 
@@ -113,15 +110,7 @@ class Criterion:
     tags: ClassVar[Mapping[str, str]] = {"dimension": "any"}
 
     def __init__(self, options: BaseModel | None = None, /, **kwargs: Any) -> None:
-        if options is None:
-            checked = validate_options(self.Options, kwargs, label=self.name or type(self).__name__)
-            assert isinstance(checked, BaseModel)  # Options is always a model here
-            options = checked
-        elif kwargs:
-            raise TypeError(f"{self.name}: give options either as an Options instance or as keywords, not both")
-        elif not isinstance(options, self.Options):
-            raise TypeError(f"{self.name or type(self).__name__}: expected {self.Options.__name__} options (got {type(options).__name__})")
-        self.options = options
+        self.options = options_from(self.Options, options, kwargs, label=self.name or type(self).__name__)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.options!r})"
@@ -184,99 +173,6 @@ def criterion_info(cls: Any, name: str | None = None) -> CriterionInfo:
     if tags["dimension"] not in DIMENSIONS:
         raise ValueError(f"criterion {label!r}: tags['dimension'] must be one of {', '.join(DIMENSIONS)} (got {tags['dimension']!r})")
     return CriterionInfo(str(getattr(cls, "name", None) or label), opts, req, red, tags)
-
-
-def did_you_mean(word: str, choices: Iterable[str]) -> str:
-    """The hint ``did you mean 'x'?`` for the closest of ``choices`` to ``word`` (``difflib``), or ``""``.
-
-    Examples
-    --------
-    >>> did_you_mean("stpe", ["step", "tau"])
-    "did you mean 'step'?"
-    >>> did_you_mean("zzz", ["step", "tau"])
-    ''
-    """
-    import difflib
-
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f"did you mean {close[0]!r}?" if close else ""
-
-
-def non_finite(value: Any, path: str = "") -> tuple[str, float] | None:
-    """The first float in ``value`` (nested dicts, lists, models) that is NaN or infinite, as ``(path, value)``.
-
-    Examples
-    --------
-    >>> non_finite({"a": 1.0, "b": [0.5, float("inf")]})
-    ('b.1', inf)
-    >>> non_finite({"a": 1.0, "b": "inf"}) is None
-    True
-    """
-    if isinstance(value, BaseModel):
-        value = {k: getattr(value, k) for k in type(value).model_fields}
-    if isinstance(value, float):
-        return None if math.isfinite(value) else (path, value)
-    if isinstance(value, Mapping):
-        items: Iterable[tuple[Any, Any]] = value.items()
-    elif isinstance(value, (list, tuple)):
-        items = enumerate(value)
-    else:
-        return None
-    for key, item in items:
-        found = non_finite(item, f"{path}.{key}" if path else str(key))
-        if found is not None:
-            return found
-    return None
-
-
-def validate_options(options_model: type[BaseModel] | None, options: Mapping[str, Any] | None, *, label: str = "criterion") -> BaseModel | dict[str, Any]:
-    """Validate ``options`` against ``options_model``; legacy classes (no model) keep the dict.
-
-    Every float, however deeply nested, must be finite (NaN and infinities are
-    refused even where the plugin's own model would allow them).
-
-    Raises
-    ------
-    CriterionOptionsError
-        One line naming the bad key and listing the valid ones (with the closest
-        valid key for a misspelt one).
-
-    Examples
-    --------
-    >>> validate_options(NoOptions, {}, label="x")
-    NoOptions()
-    >>> validate_options(NoOptions, {"k": 3}, label="x")
-    Traceback (most recent call last):
-    ...
-    graphseg.graphs.criterion.CriterionOptionsError: x: unknown option 'k'; valid options: (none)
-    >>> from graphseg.graphs.chamfer import Chamfer3D
-    >>> validate_options(Chamfer3D.Options, {"tua": 1e-4}, label="chamfer_3d")
-    Traceback (most recent call last):
-    ...
-    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: unknown option 'tua'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune, min_confidence, spacing_factor, fragment_ratio; did you mean 'tau'?
-    >>> validate_options(Chamfer3D.Options, {"tau": float("inf")}, label="chamfer_3d")
-    Traceback (most recent call last):
-    ...
-    graphseg.graphs.criterion.CriterionOptionsError: chamfer_3d: option 'tau': expected a finite number (got inf)
-    """
-    data = dict(options or {})
-    if options_model is None:
-        checked: BaseModel | dict[str, Any] = data
-    else:
-        valid = ", ".join(options_model.model_fields) or "(none)"
-        try:
-            checked = options_model.model_validate(data)
-        except ValidationError as err:
-            first = err.errors()[0]
-            key = ".".join(str(x) for x in first["loc"]) or "(options)"
-            if first["type"] == "extra_forbidden":
-                hint = did_you_mean(str(first["loc"][-1]) if first["loc"] else key, options_model.model_fields)
-                raise CriterionOptionsError(f"{label}: unknown option {key!r}; valid options: {valid}" + (f"; {hint}" if hint else "")) from None
-            raise CriterionOptionsError(f"{label}: option {key!r}: {first['msg']} (got {first.get('input')!r}); valid options: {valid}") from None
-    bad = non_finite(checked)
-    if bad is not None:
-        raise CriterionOptionsError(f"{label}: option {bad[0]!r}: expected a finite number (got {bad[1]!r})")
-    return checked
 
 
 def build_criterion(cls: Any, options: Mapping[str, Any] | BaseModel | None = None, *, name: str | None = None) -> Any:

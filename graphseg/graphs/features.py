@@ -9,7 +9,7 @@ Examples
 --------
 >>> import numpy as np
 >>> f = np.array([[1.0, 0], [0.9, 0.1], [0, 1]])
->>> feature_similarity_edges(f, 0.95).edge_index.tolist()
+>>> feature_similarity_edges(f, 0.95, cross_view_only=False).edge_index.tolist()
 [[0], [1]]
 """
 
@@ -60,10 +60,10 @@ def node_mean_features(node_labels: Sequence[np.ndarray], features: Sequence[np.
 
 def feature_similarity_edges(
     node_features: np.ndarray,
-    threshold: float = 0.8,
+    threshold: float,
     *,
     node_view: np.ndarray | None = None,
-    cross_view_only: bool = False,
+    cross_view_only: bool,
     block: int = 1024,
 ) -> EdgeSet:
     """Edges between nodes whose features have cosine similarity ``>= threshold``.
@@ -72,10 +72,15 @@ def feature_similarity_edges(
     ----------
     node_features : float ``[N, D]``
     threshold : float
+        Cosine similarity.
     node_view : int ``[N]``, optional
         With ``cross_view_only=True``, nodes of the same view are never joined.
+    cross_view_only : bool
     block : int
         Rows per block of the similarity matrix (memory O(block x N)).
+
+    The option defaults live in :class:`FeatureSimilarity.Options`; here
+    ``threshold`` and ``cross_view_only`` are required.
 
     Returns
     -------

@@ -42,6 +42,8 @@ from typing import Any
 
 import numpy as np
 
+from .edge_index import GraphValidationError, as_edge_index
+
 __all__ = [
     "CorrespondenceGraph",
     "MaskNode",
@@ -52,9 +54,6 @@ __all__ = [
     "concat_edge_attr",
     "mask_node_table",
 ]
-
-class GraphValidationError(ValueError):
-    """Raised by :meth:`CorrespondenceGraph.validate` and boundary checks."""
 
 
 @dataclass(frozen=True)
@@ -79,58 +78,6 @@ class SuperNode:
     member_count: int
     area: int
     extra: dict[str, Any] = field(default_factory=dict)
-
-
-def as_edge_index(edge_index: Any, num_nodes: int | None = None) -> np.ndarray:
-    """Validate and convert ``edge_index`` to a contiguous int64 ``[2, E]`` array.
-
-    Parameters
-    ----------
-    edge_index : array_like
-        Integer array of shape ``[2, E]``.
-    num_nodes : int, optional
-        When given, every index must lie in ``[0, num_nodes)``.
-
-    Returns
-    -------
-    numpy.ndarray
-        int64 array of shape ``[2, E]``.
-
-    Raises
-    ------
-    GraphValidationError
-        On a wrong shape, a non-integer dtype or an index out of range.
-
-    Examples
-    --------
-    >>> as_edge_index([[0, 1], [1, 2]]).dtype
-    dtype('int64')
-    >>> as_edge_index(np.zeros((3, 10), dtype=int))
-    Traceback (most recent call last):
-    ...
-    graphseg.graphs.graph.GraphValidationError: expected edge_index of shape [2, E] (got [3, 10])
-    """
-    arr = np.asarray(edge_index)
-    if arr.size == 0 and arr.ndim <= 2:
-        arr = arr.reshape(2, 0) if arr.ndim != 2 or arr.shape[0] in (0, 2) else arr
-    if arr.ndim != 2 or arr.shape[0] != 2:
-        raise GraphValidationError(
-            f"expected edge_index of shape [2, E] (got {list(arr.shape)})"
-        )
-    if arr.size and not np.issubdtype(arr.dtype, np.integer):
-        if np.issubdtype(arr.dtype, np.floating) and np.all(np.mod(arr, 1) == 0):
-            pass
-        else:
-            raise GraphValidationError(f"expected edge_index of an integer dtype (got {arr.dtype})")
-    arr = np.ascontiguousarray(arr, dtype=np.int64)
-    if num_nodes is not None and arr.size:
-        lo, hi = int(arr.min()), int(arr.max())
-        if lo < 0 or hi >= num_nodes:
-            bad = lo if lo < 0 else hi
-            raise GraphValidationError(
-                f"expected edge_index entries in [0, num_nodes={num_nodes}) (got {bad})"
-            )
-    return arr
 
 
 def fill_value(dtype: np.dtype) -> Any:
@@ -573,11 +520,11 @@ class CorrespondenceGraph:
 
         Repulsive edges (``sign < 0``) are never merged across: signed
         contractors honour them as cannot-links, plain ones ignore them
-        (:func:`graphseg.graphs.signed.run_contractor`, the same path as
+        (:func:`graphseg.graphs.contractor.run_contractor`, the same path as
         :func:`graphseg.method.segment`).
         """
+        from .contractor import run_contractor
         from .registry import contractors
-        from .signed import run_contractor
 
         c = contractors.resolve(contractor)
         return run_contractor(c, self.edge_index, self.num_nodes, edge_attr=self.edge_attr, node_attr=self.node_attr, rng=rng)

@@ -39,8 +39,8 @@ def bidirectional_overlap_edges(
     matches: Mapping[tuple[int, int], Any],
     num_nodes: int,
     *,
-    threshold: float = 0.5,
-    min_matches: int = 5,
+    threshold: float,
+    min_matches: int,
 ) -> EdgeSet:
     """Edges whose bidirectional overlap reaches ``threshold`` in some view pair.
 
@@ -52,6 +52,8 @@ def bidirectional_overlap_edges(
     threshold : float
     min_matches : int
         Node pairs sharing fewer matches in a view pair are skipped.
+
+    Both options are required keywords: the defaults live in :class:`BidirectionalOverlap.Options`.
 
     Returns
     -------

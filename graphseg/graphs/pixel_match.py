@@ -18,7 +18,7 @@ Examples
 >>> from graphseg.scene import Matches
 >>> labels = [np.array([[0, 0, 1, 1]]), np.array([[2, 2, 3, -1]])]  # node ids, -1 = none
 >>> m = {(0, 1): Matches([[0, 0], [1, 0], [2, 0]], [[0, 0], [1, 0], [1, 0]], [1, 1, 1])}
->>> ei, count, ratio = pixel_match_ratios(labels, m, 4, areas=np.array([2, 2, 2, 1]))
+>>> ei, count, ratio = pixel_match_ratios(labels, m, 4, areas=np.array([2, 2, 2, 1]), normalization="area", consistency_percentile=None)
 >>> ei.tolist(), count.tolist(), ratio.tolist()
 ([[0, 1], [2, 2]], [2, 1], [1.0, 0.5])
 """
@@ -96,9 +96,9 @@ def pixel_match_ratios(
     num_nodes: int,
     *,
     areas: np.ndarray,
-    normalization: str = "area",
+    normalization: str,
     points: Sequence[np.ndarray | None] | None = None,
-    consistency_percentile: float | None = None,
+    consistency_percentile: float | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Match counts and normalised ratios for every node pair that shares a match.
 
@@ -123,9 +123,13 @@ def pixel_match_ratios(
         largest ratio.
     points : list of ``[H, W, 3]``, optional
         World points, needed by ``consistency_percentile``.
-    consistency_percentile : float, optional
+    consistency_percentile : float or None
         Drop matches whose two 3D points are farther apart than this percentile
-        of the pair's distances. Each point is read at its own image's pixel.
+        of the pair's distances (None: keep all). Each point is read at its own
+        image's pixel.
+
+    The option defaults live in :class:`PixelMatch.Options`; here every option
+    is a required keyword.
 
     Returns
     -------
@@ -192,28 +196,29 @@ def pixel_match_edges(
     num_nodes: int,
     *,
     areas: np.ndarray,
-    tau: float | None = None,
-    percentile: float = 78.0,
-    min_matches: int = 3,
-    normalization: str = "area",
+    tau: float | None,
+    percentile: float,
+    min_matches: int,
+    normalization: str,
     points: Sequence[np.ndarray | None] | None = None,
-    consistency_percentile: float | None = None,
+    consistency_percentile: float | None,
 ) -> EdgeSet:
     """Edges where the match ratio reaches ``tau`` (or the ``percentile`` of all ratios).
 
     Parameters
     ----------
-    tau : float, optional
+    tau : float or None
         Absolute threshold; when None, ``np.percentile(ratios, percentile)``.
     percentile : float
-        Used when ``tau`` is None; the paper's default is 78.
+        Used when ``tau`` is None; the paper's value is 78.
     min_matches : int
         Pairs sharing fewer matches are ignored: they get no edge and do not
         count toward the percentile. Stray matches touch many mask pairs once
         or twice; without this, those pairs outnumber the real ones and drag
-        the percentile threshold down into the noise (default 3; 1 = the
-        paper's rule).
-    Other parameters are those of :func:`pixel_match_ratios`.
+        the percentile threshold down into the noise (1 = the paper's rule).
+    Other parameters are those of :func:`pixel_match_ratios`. Every option is
+    a required keyword: the defaults live in :class:`PixelMatch.Options`
+    (``pixel_match_edges(..., **PixelMatch.Options().model_dump())``).
 
     Returns
     -------

@@ -14,7 +14,8 @@ Examples
 >>> import numpy as np
 >>> lab = np.array([[0, 0, 1, 1]])
 >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, 2:, 2] = 0.1   # 10 cm step between the masks
->>> depth_jump_cannot_links([lab], [pts], 2, jump=0.02, min_pairs=1).edge_index.tolist()
+>>> opts = {**DepthRepulsion.Options().model_dump(), "min_pairs": 1}  # the defaults live in Options
+>>> depth_jump_cannot_links([lab], [pts], 2, **opts).edge_index.tolist()
 [[0], [1]]
 """
 
@@ -35,7 +36,7 @@ __all__ = ["boundary_jumps", "boundary_separation", "depth_jump_cannot_links", "
 
 
 def boundary_jumps(
-    labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int = 3, normals: np.ndarray | None = None, colors: np.ndarray | None = None
+    labels: np.ndarray, points: np.ndarray, num_nodes: int, *, reach: int, normals: np.ndarray | None = None, colors: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Node pairs touching in one view and the 3D distances across their boundary.
 
@@ -121,10 +122,10 @@ def boundary_separation(
     points: Sequence[np.ndarray | None],
     num_nodes: int,
     *,
-    jump: float | None = 0.02,
-    concave: float | None = None,
-    reach: int = 3,
-    normal_step: int = 3,
+    jump: float | None,
+    concave: float | None,
+    reach: int,
+    normal_step: int,
     rgb: Sequence[np.ndarray] | None = None,
     color: float | None = None,
     drop_unknown: bool = False,
@@ -181,7 +182,7 @@ def boundary_separation(
     Examples
     --------
     >>> pts = np.zeros((1, 2, 3)); pts[0, 1, 2] = 0.5
-    >>> p, c, s = boundary_separation([np.array([[0, 1]])], [pts], 2, reach=1)
+    >>> p, c, s = boundary_separation([np.array([[0, 1]])], [pts], 2, jump=0.02, concave=None, reach=1, normal_step=3)
     >>> p.tolist(), c.tolist(), s.tolist()
     ([[0], [1]], [1], [1.0])
     """
@@ -239,13 +240,13 @@ def depth_jump_cannot_links(
     points: Sequence[np.ndarray],
     num_nodes: int,
     *,
-    jump: float | None = 0.02,
-    fraction: float = 0.5,
-    reach: int = 3,
-    min_pairs: int = 10,
-    same_view: bool = False,
-    concave: float | None = None,
-    normal_step: int = 3,
+    jump: float | None,
+    fraction: float,
+    reach: int,
+    min_pairs: int,
+    same_view: bool,
+    concave: float | None,
+    normal_step: int,
     normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Cannot-link edges between nodes whose shared boundary is mostly a depth jump or a concave crease.
@@ -273,6 +274,8 @@ def depth_jump_cannot_links(
         meet at a jump or not at all.
     normals : list of float ``[H, W, 3]``, optional
         Precomputed normals at ``normal_step`` (see :func:`boundary_separation`).
+
+    Every option is a required keyword: the defaults live in :class:`DepthRepulsion.Options`.
 
     Returns
     -------

@@ -24,9 +24,11 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from .contract import canonical_cluster
+from .coalesce import canonical_cluster
+from .contractor import BaseContractor, run_contractor, split_signed
 from .graph import as_edge_index
 
+# run_contractor and split_signed (now in contractor) stay importable from here
 __all__ = [
     "constrained_union_find",
     "core_attach_contraction",
@@ -305,22 +307,6 @@ def edge_strength(edge_attr: Mapping[str, Any], num_edges: int) -> np.ndarray:
     return out
 
 
-def split_signed(edge_index: Any, edge_attr: Mapping[str, Any] | None) -> tuple[np.ndarray, np.ndarray]:
-    """Boolean masks ``(attractive, repulsive)`` ``[E]`` from the ``sign`` column (missing = attractive).
-
-    Examples
-    --------
-    >>> [m.tolist() for m in split_signed(np.array([[0, 1], [1, 2]]), {"sign": np.array([1.0, -1.0])})]
-    [[True, False], [False, True]]
-    """
-    e = as_edge_index(edge_index).shape[1]
-    sign = None if edge_attr is None else edge_attr.get("sign")
-    if sign is None:
-        return np.ones(e, bool), np.zeros(e, bool)
-    s = np.asarray(sign, np.float64)
-    return ~(s < 0), s < 0
-
-
 def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What every signed contractor reads from a graph's edges.
 
@@ -346,33 +332,7 @@ def signed_edges(edge_index: Any, num_nodes: int, edge_attr: Mapping[str, Any] |
     return ei[:, pos], strength, ei[:, neg]
 
 
-def run_contractor(
-    contractor: Any, edge_index: Any, num_nodes: int, *, edge_attr: Mapping[str, Any] | None = None, node_attr: Mapping[str, Any] | None = None, rng: Any = None
-) -> np.ndarray:
-    """Run any contractor on a graph's edges with one meaning of signed edges.
-
-    The one path from a graph to a cluster vector, used by
-    :func:`graphseg.method.segment` and :meth:`CorrespondenceGraph.contract`.
-    Edges with ``sign < 0`` are repulsive: a contractor that reads edge
-    attributes (``uses_edge_attr``) gets them all and honours them as
-    cannot-links; for any other contractor (plain components) they are
-    dropped, so it never merges across them.
-
-    Examples
-    --------
-    >>> from graphseg.graphs.contract import UnionFindContraction
-    >>> ei = np.array([[0, 1], [1, 2]])
-    >>> run_contractor(UnionFindContraction(), ei, 3, edge_attr={"sign": np.array([1.0, -1.0])}).tolist()
-    [0, 0, 1]
-    """
-    if getattr(contractor, "uses_edge_attr", False):
-        extra = {"node_attr": dict(node_attr or {})} if getattr(contractor, "uses_node_attr", False) else {}
-        return np.asarray(contractor(edge_index, num_nodes, rng=rng, edge_attr=dict(edge_attr or {}), **extra))
-    attract, _ = split_signed(edge_index, edge_attr)
-    return np.asarray(contractor(as_edge_index(edge_index, num_nodes)[:, attract], num_nodes, rng=rng))
-
-
-class _SignedContraction:
+class _SignedContraction(BaseContractor):
     """A contractor that runs ``solve(attract, num_nodes, weight=strength, cannot_link=...)`` on :func:`signed_edges`.
 
     Called as ``contractor(edge_index, num_nodes, rng=rng, edge_attr=attrs)``
@@ -468,7 +428,7 @@ def core_attach_contraction(edge_index: Any, num_nodes: int, *, core: Any, weigh
     return canonical_cluster(labels)
 
 
-class CoreAttachContraction:
+class CoreAttachContraction(BaseContractor):
     """Contractor: :func:`core_attach_contraction`; core = nodes with ``area >= min_area``.
 
     Takes ``edge_attr`` (strength from :func:`edge_strength`, ``sign < 0`` =
@@ -486,8 +446,16 @@ class CoreAttachContraction:
     uses_edge_attr = True
     uses_node_attr = True
 
-    def __init__(self, min_area: float = 1000.0) -> None:
-        self.min_area = float(min_area)
+    class Options(BaseModel):
+        """Options of ``core_attach`` (validated in the config, so a misspelt one is an error there)."""
+
+        model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+        min_area: float = Field(1000.0, description="nodes with at least this area (pixels) are core; the others follow their strongest edge")
+
+    @property
+    def min_area(self) -> float:
+        """``options.min_area``."""
+        return float(self.options.min_area)  # type: ignore[attr-defined]
 
     def __call__(
         self,
@@ -504,7 +472,7 @@ class CoreAttachContraction:
         return core_attach_contraction(attract, num_nodes, core=core, weight=strength, cannot_link=cannot)
 
 
-class GreedyAdditiveContraction:
+class GreedyAdditiveContraction(BaseContractor):
     """Contractor: :func:`greedy_additive_contraction` (strengths summed per cluster pair) on a graph's signed edges.
 
     Examples
@@ -525,17 +493,9 @@ class GreedyAdditiveContraction:
         fragment_area: float | None = Field(None, gt=0, description="nodes below this area (pixels) join one core cluster only (None: off)")
 
     def __init__(self, options: BaseModel | None = None, /, **kwargs: Any) -> None:
-        from .criterion import validate_options
-
-        if options is None:
-            checked = validate_options(self.Options, kwargs, label=self.name)
-            assert isinstance(checked, BaseModel)  # Options is a model here
-            options = checked
-        elif kwargs:
-            raise TypeError("gaec: give options either as an Options instance or as keywords, not both")
-        self.options = options
-        self.repulsion: float | None = getattr(options, "repulsion", None)
-        self.fragment_area: float | None = getattr(options, "fragment_area", None)
+        super().__init__(options, **kwargs)
+        self.repulsion: float | None = getattr(self.options, "repulsion", None)
+        self.fragment_area: float | None = getattr(self.options, "fragment_area", None)
 
     def __call__(
         self,

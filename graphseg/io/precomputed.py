@@ -1,11 +1,13 @@
 """Precomputed model outputs as inputs: a matches folder and a point-map folder.
 
 Models such as SAM, RoMa, DUSt3R, MASt3R or VGGT are often run elsewhere (on a
-GPU machine); their outputs enter graphseg through three folders (masks: see
-:mod:`graphseg.backends.segmenters`):
+GPU machine); their outputs enter graphseg through three folders (the
+``precomputed`` segmenter reads the masks folder with :func:`read_masks`):
 
 ::
 
+    MASKS/VIEW.png             a label image, 8- or 16-bit (0 = no mask, k = mask k), or
+    MASKS/VIEW.npz             masks bool [K, H, W] (one boolean mask per entry, may overlap)
     MATCHES/VIEWI__VIEWJ.npz   xy_i float [M, 2], xy_j float [M, 2], certainty float [M] (optional,
                                default 1), view_i / view_j str (optional), image_size_i /
                                image_size_j int [2] = (H, W) the coordinates refer to (optional)
@@ -59,6 +61,8 @@ import numpy as np
 from ..scene import Matches, Scene, SceneError, is_rigid
 
 __all__ = [
+    "write_masks",
+    "read_masks",
     "encode_name",
     "decode_name",
     "pair_file_name",
@@ -491,6 +495,92 @@ def write_matches_folder(folder: str | os.PathLike[str], scene: Scene, matches: 
     return out
 
 
+# ----------------------------------------------------------------------------- masks
+def write_masks(folder: str | os.PathLike[str], name: str, masks: list[np.ndarray] | np.ndarray) -> Path:
+    """Write one view's masks: a label image as 16-bit ``NAME.png``, a list/stack of bool masks as ``NAME.npz``.
+
+    Parameters
+    ----------
+    folder : path
+        Created if missing.
+    name : str
+        File stem (``encode_name(view)`` for a view name with other characters).
+    masks : int ``[H, W]`` label image (values in ``[0, 65535]``) or bool ``[K, H, W]`` / list of ``[H, W]``
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_masks(d, "v", [np.eye(2, dtype=bool)]).name, read_masks(d, "v")[0].tolist()
+    ('v.npz', [[True, False], [False, True]])
+    """
+    import cv2
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    arr = masks if isinstance(masks, np.ndarray) else np.stack([np.asarray(m, bool) for m in masks])
+    if arr.ndim == 2:
+        if arr.min(initial=0) < 0 or arr.max(initial=0) >= 2**16:
+            raise ValueError("label images must hold values in [0, 65535]")
+        path = folder / f"{name}.png"
+        cv2.imwrite(str(path), arr.astype(np.uint16))
+    else:
+        path = folder / f"{name}.npz"
+        np.savez_compressed(path, masks=arr.astype(bool))
+    return path
+
+
+def read_masks(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[np.ndarray]:
+    """Read ``NAME.npz`` (key ``masks``, bool ``[K, H, W]``) or ``NAME.png`` (label image).
+
+    ``name`` is a view name or its file stem (:func:`encode_name`, as
+    :func:`save_inputs` writes it).
+
+    Returns
+    -------
+    int32 ``[H, W]`` label image, or list of bool ``[H, W]`` masks
+
+    Raises
+    ------
+    SceneError
+        Naming the file and the field ``masks``: no file, an unreadable,
+        oversized or tampered ``.npz`` (sizes are checked before loading), or
+        arrays of the wrong shape or dtype.
+    """
+    folder = Path(folder)
+    if not any((folder / f"{name}{s}").is_file() for s in (".npz", ".png")):
+        name = encode_name(name)  # names saved by save_inputs
+    npz, png = folder / f"{name}.npz", folder / f"{name}.png"
+    if npz.exists():
+        # the zip-bomb and size rules of every .npz graphseg reads
+        from ..graphs.native import check_npz_sizes
+
+        try:
+            check_npz_sizes(npz)
+            with np.load(npz, allow_pickle=False) as z:
+                if "masks" not in z.files:
+                    raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
+                arr = z["masks"]
+        except (ValueError, OSError, EOFError) as err:  # GraphValidationError is a ValueError
+            if isinstance(err, SceneError):
+                raise
+            text = (str(err) or type(err).__name__).splitlines()[0].replace(f"{npz}: ", "")
+            raise SceneError(f"cannot read .npz ({text})", where=str(npz), field="masks") from err
+        if arr.ndim != 3 or arr.dtype.kind not in "biu":
+            raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
+        return list(arr.astype(bool))
+    if png.exists():
+        from .images import read_label
+
+        return read_label(png, field="masks")  # pixel budget, clean errors, no OpenCV log lines
+    raise SceneError(f"no masks for view {name!r} ({npz.name} or {png.name})", where=str(folder), field="masks")
+
+
 def save_inputs(
     folder: str | os.PathLike[str],
     scene: Scene,
@@ -509,8 +599,6 @@ def save_inputs(
     dict
         ``{"masks": PATH, "matches": PATH, "points": PATH}`` for what was written.
     """
-    from ..backends.segmenters import save_precomputed
-
     root = Path(folder)
     out: dict[str, Path] = {}
     if any(v.points is not None for v in scene.views):
@@ -524,7 +612,7 @@ def save_inputs(
                 m = [m == k for k in np.unique(m) if k != 0]
             if isinstance(m, list) and not m:
                 m = np.zeros(v.shape, np.int32)
-            save_precomputed(root / "masks", encode_name(v.name), m)
+            write_masks(root / "masks", encode_name(v.name), m)
         out["masks"] = root / "masks"
     if matches is not None:
         write_matches_folder(root / "matches", scene, matches)

@@ -30,8 +30,9 @@ from typing import Any
 import numpy as np
 
 from ..config import BackgroundConfig
-from ..geometry import fit_plane_ransac, point_normals
+from ..geometry import fit_table_plane, point_normals
 
+# fit_table_plane (now in geometry: the geometric segmenter uses it too) stays importable from here
 __all__ = ["background_masks", "fit_table_plane", "table_outline", "TableOutline", "BackgroundInfo"]
 
 
@@ -176,58 +177,6 @@ def _subsample(idx: list[np.ndarray], counts: list[int], size: int, gen: np.rand
     pick = np.sort(gen.choice(total, size=size, replace=False))
     bounds = np.cumsum([0, *counts])
     return [i[pick[(pick >= lo) & (pick < hi)] - lo] for i, lo, hi in zip(idx, bounds[:-1], bounds[1:])]
-
-
-def fit_table_plane(
-    flat_points: Sequence[np.ndarray],
-    pool: Sequence[np.ndarray],
-    cam_centers: Sequence[np.ndarray] | None,
-    config: BackgroundConfig,
-    *,
-    rng: Any = None,
-) -> tuple[np.ndarray, float] | None:
-    """The table plane ``(normal [3], offset)`` by RANSAC, cameras on its positive side.
-
-    Parameters
-    ----------
-    flat_points : list of float ``[P_v, 3]``
-        Points per view.
-    pool : list of int arrays
-        Indices of the valid points of each view to sample from.
-    cam_centers : list of ``[3]`` or None
-        Orient the plane so the cameras lie on its positive side.
-    config : BackgroundConfig
-        ``ransac_sample``, ``ransac_iterations``, ``plane_tolerance`` and
-        ``min_plane_fraction`` are used.
-    rng : None, int or Generator, keyword-only
-
-    Returns
-    -------
-    (normal, offset) or None
-        None when fewer than ``min_plane_fraction`` of the sample are inliers.
-
-    Examples
-    --------
-    >>> ys, xs = np.mgrid[0:20, 0:20] * 0.01
-    >>> table = np.stack([xs, ys, np.zeros_like(xs)], -1).reshape(-1, 3)
-    >>> n, d = fit_table_plane([table], [np.arange(400)], [np.array([0, 0, 1.0])], BackgroundConfig(), rng=0)
-    >>> np.round(n, 3).tolist(), round(d, 3)
-    ([0.0, 0.0, 1.0], 0.0)
-    """
-    gen = np.random.default_rng(rng)
-    allp = np.concatenate([np.asarray(f)[i] for f, i in zip(flat_points, pool)])
-    if len(allp) < 3:
-        return None
-    take = gen.choice(len(allp), size=min(config.ransac_sample, len(allp)), replace=False)
-    sample = allp[take].astype(np.float64)
-    normal, offset, inl = fit_plane_ransac(sample, threshold=config.plane_tolerance, iterations=config.ransac_iterations, rng=gen)
-    if inl.mean() < config.min_plane_fraction:
-        return None
-    if cam_centers is not None and len(cam_centers):
-        side = np.mean([float(np.asarray(c) @ normal + offset) for c in cam_centers])
-        if side < 0:
-            normal, offset = -normal, -offset
-    return normal, float(offset)
 
 
 def background_masks(

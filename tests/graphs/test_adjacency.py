@@ -1,9 +1,24 @@
 import numpy as np
 import pytest
 
-from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
-from graphseg.graphs.adjacency import SmoothAdjacency, smooth_adjacency_links
-from graphseg.graphs.repulsion import DepthRepulsion, boundary_separation, depth_jump_cannot_links
+from graphseg.graphs import CorrespondenceGraph, Evidence, adjacency, edge_adders, repulsion
+from graphseg.graphs.adjacency import SmoothAdjacency
+from graphseg.graphs.repulsion import DepthRepulsion
+
+
+# The pure functions take every option as a required keyword; the tests leave out what they do
+# not vary, which then comes from the criterion's Options (the one home of the defaults).
+def smooth_adjacency_links(*args, **kw):
+    return adjacency.smooth_adjacency_links(*args, **{**SmoothAdjacency.Options().model_dump(), **kw})
+
+
+def depth_jump_cannot_links(*args, **kw):
+    return repulsion.depth_jump_cannot_links(*args, **{**DepthRepulsion.Options().model_dump(), **kw})
+
+
+def boundary_separation(*args, **kw):
+    d = DepthRepulsion.Options().model_dump()
+    return repulsion.boundary_separation(*args, **{**{k: d[k] for k in ("jump", "concave", "reach", "normal_step")}, **kw})
 
 
 def grid(h, w, z):

@@ -3,15 +3,30 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
-from graphseg.graphs.consensus import (
-    ViewConsensus,
-    consensus_pairs,
-    containers,
-    view_consensus_edges,
-)
-from graphseg.graphs.overlap import BidirectionalOverlap, bidirectional_overlap_edges
+from graphseg.graphs import CorrespondenceGraph, Evidence, consensus, edge_adders, overlap
+from graphseg.graphs.consensus import ViewConsensus
+from graphseg.graphs.overlap import BidirectionalOverlap
 from graphseg.scene import Matches
+
+# The pure functions take every option as a required keyword; the tests leave out what they do
+# not vary, which then comes from the criterion's Options (the one home of the defaults).
+_CONSENSUS = ViewConsensus.Options().model_dump()
+
+
+def containers(*args, **kw):
+    return consensus.containers(*args, **{**{k: _CONSENSUS[k] for k in ("min_matches", "min_share")}, **kw})
+
+
+def consensus_pairs(*args, **kw):
+    return consensus.consensus_pairs(*args, **{**{k: _CONSENSUS[k] for k in ("min_views", "threshold")}, **kw})
+
+
+def view_consensus_edges(*args, **kw):
+    return consensus.view_consensus_edges(*args, **{**_CONSENSUS, **kw})
+
+
+def bidirectional_overlap_edges(*args, **kw):
+    return overlap.bidirectional_overlap_edges(*args, **{**BidirectionalOverlap.Options().model_dump(), **kw})
 
 
 def identity_matches(shape, pairs):

@@ -12,10 +12,15 @@ from graphseg.graphs import (
     node_mean_features,
     node_point_sets,
     pair_counts,
-    pixel_match_edges,
+    pixel_match,
     remove_outliers,
 )
 from graphseg.scene import Matches
+
+
+def pixel_match_edges(*args, **kw):
+    # every option is a required keyword; what a test leaves out comes from PixelMatch.Options
+    return pixel_match.pixel_match_edges(*args, **{**PixelMatch.Options().model_dump(), **kw})
 
 
 def test_pair_counts_dense_and_sparse_agree():

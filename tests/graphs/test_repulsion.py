@@ -1,13 +1,24 @@
 import numpy as np
 import pytest
 
-from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders
-from graphseg.graphs.repulsion import (
-    DepthRepulsion,
-    boundary_jumps,
-    boundary_separation,
-    depth_jump_cannot_links,
-)
+from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders, repulsion
+from graphseg.graphs.repulsion import DepthRepulsion
+
+# The pure functions take every option as a required keyword; the tests leave out what they do
+# not vary, which then comes from DepthRepulsion.Options (the one home of the defaults).
+_DEFAULTS = DepthRepulsion.Options().model_dump()
+
+
+def depth_jump_cannot_links(*args, **kw):
+    return repulsion.depth_jump_cannot_links(*args, **{**_DEFAULTS, **kw})
+
+
+def boundary_separation(*args, **kw):
+    return repulsion.boundary_separation(*args, **{**{k: _DEFAULTS[k] for k in ("jump", "concave", "reach", "normal_step")}, **kw})
+
+
+def boundary_jumps(*args, **kw):
+    return repulsion.boundary_jumps(*args, **{"reach": _DEFAULTS["reach"], **kw})
 
 
 def grid(h, w, z):
