@@ -134,9 +134,12 @@ class LiftedConfig(_Model):
     ``bench_rgb_only.py``; measured depth keeps the preset's options (the same
     rule lowered YCB-Video 0001 at 3 and 5 views; ``docs/results.md``).
     ``objects`` goes on top of :class:`ObjectConfig` the same way (empty by default).
+    ``preset`` (None by default; the ``rgbd`` preset sets ``"robust"``) replaces the
+    stages and the contractor with those of a preset before ``criteria`` apply.
     """
 
     lifters: list[str] = Field(default_factory=lambda: ["sfm", "dust3r", "da3"], description="lifters whose points get these options")
+    preset: str | None = Field(None, description="a preset whose stages and contractor estimated points run with (None: the configuration's own)")
     criteria: dict[str, dict[str, Any]] = Field(
         default_factory=lambda: {"chamfer_3d": {"fragment_ratio": 0.5}}, description="criterion name -> options applied on top of its stage entries"
     )
@@ -146,6 +149,13 @@ class LiftedConfig(_Model):
     @classmethod
     def _known_object_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
         ObjectConfig.model_validate(v)  # unknown field or bad value: one line naming it
+        return v
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, v: str | None) -> str | None:
+        if v is not None and v not in PRESETS:
+            raise ValueError(f"unknown preset {v!r}; choose one of {', '.join(PRESETS)}")
         return v
 
     @field_validator("criteria")
@@ -540,12 +550,17 @@ class Config(_Model):
         >>> cfg.for_lifter("rgbd") is cfg
         True
         """
-        if lifter is None or lifter not in self.lifted.lifters or not (self.lifted.criteria or self.lifted.objects):
+        lf = self.lifted
+        if lifter is None or lifter not in lf.lifters or not (lf.criteria or lf.objects or lf.preset):
             return self
-        over = self.lifted.criteria
-        stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in self.stages]
-        objects = ObjectConfig.model_validate({**self.objects.model_dump(), **self.lifted.objects})
-        return self.model_copy(update={"stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages], "objects": objects})
+        base: Config = self
+        if lf.preset is not None and self.method == "graphseg":
+            source = Config.preset(lf.preset)
+            base = self.model_copy(update={"stages": source.stages, "contractor": source.contractor})
+        over = lf.criteria
+        stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in base.stages]
+        objects = ObjectConfig.model_validate({**self.objects.model_dump(), **lf.objects})
+        return base.model_copy(update={"stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages], "objects": objects})
 
     def stage_names(self) -> list[list[str]]:
         """The criterion names of every stage."""

@@ -40,7 +40,10 @@ from ..registry import require
 from ..scene import Scene, SceneError
 from .align import NOMINAL_WORKING_DISTANCE, umeyama
 
-__all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "not_registered_message"]
+__all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "CAMERA_MODELS", "not_registered_message"]
+
+#: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
+CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
 
 #: Median camera-to-point distance (m) a reconstruction of unknown scale is scaled to.
 NOMINAL_DISTANCE = NOMINAL_WORKING_DISTANCE  # the one documented normalisation of every lifter (align.py)
@@ -170,6 +173,7 @@ def run_sfm(
     min_tri_angle: float = 2.0,
     seed: int = 0,
     attempts: int = 3,
+    camera_model: str = "SIMPLE_PINHOLE",
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -178,7 +182,7 @@ def run_sfm(
     images : list of uint8 ``[H, W, 3]``
     K : list of ``[3, 3]``, optional
         Known intrinsics (graphseg convention: pixel centres at integers),
-        held fixed. Without them one shared ``SIMPLE_RADIAL`` camera is
+        held fixed. Without them one shared camera of ``camera_model`` is
         estimated, starting from COLMAP's focal-length guess (1.2 x the larger side).
     peak_threshold : float
         SIFT detector threshold (COLMAP's default 0.0067 finds too few
@@ -194,6 +198,15 @@ def run_sfm(
         Incremental mapping is randomised: when a view
         stays unregistered it is rerun from the same matches with the next
         seed, up to this many times; the model with the most views is kept.
+    camera_model : str
+        COLMAP camera model estimated when ``K`` is not given (one camera shared
+        by all views). ``"SIMPLE_PINHOLE"`` (default: one focal length, principal
+        point at the image centre, no distortion): a few views of a tabletop
+        constrain a radial distortion term poorly, and ``"SIMPLE_RADIAL"``
+        (COLMAP's default) let it absorb wrong matches on the tuning half of
+        ``bench_rgb_only.py`` (focal lengths off by up to 2.2x and k1 up to 0.94;
+        ``docs/results.md``, round 6). Use ``"SIMPLE_RADIAL"``, ``"RADIAL"`` or
+        ``"OPENCV"`` for photos with visible lens distortion.
 
     Returns
     -------
@@ -215,12 +228,14 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model)
     finally:
         pycolmap.logging.minloglevel = level
 
 
-def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int) -> SfmReconstruction:
+def _run_sfm(
+    pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str
+) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     names = [f"{i:04d}.png" for i in range(n)]
@@ -236,7 +251,7 @@ def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarr
         # with more registered views is kept (ties keep the pooled one).
         best = None
         for pooling in (True, False):
-            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, pooling)
+            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling)
             if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                 best = rec
             if best is not None and best.num_reg_images() == n:
@@ -246,7 +261,9 @@ def _run_sfm(pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarr
         return _convert(best, names)
 
 
-def _map(pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None, known: bool, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, pooling: bool) -> Any:
+def _map(
+    pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None, known: bool, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str, pooling: bool
+) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
@@ -265,7 +282,7 @@ def _map(pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None
         reader.camera_model = "PINHOLE"
         reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
     else:
-        reader.camera_model = "SIMPLE_RADIAL"
+        reader.camera_model = camera_model
     db = root / f"database-{tag}.db"
     pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
     if known and mode == pycolmap.CameraMode.PER_IMAGE:
@@ -322,6 +339,8 @@ def _convert(rec: Any, names: list[str]) -> SfmReconstruction:
             d[0] = cam.params[3]
             if cam.model.name == "RADIAL":
                 d[1] = cam.params[4]
+        elif cam.model.name == "OPENCV":  # fx, fy, cx, cy, k1, k2, p1, p2 -> OpenCV's (k1, k2, p1, p2, k3)
+            d[:4] = cam.params[4:8]
         dists[i] = d
         w2c = np.eye(4)
         w2c[:3, :] = np.asarray(image.cam_from_world().matrix(), np.float64)
@@ -459,6 +478,8 @@ class SfmLifter:
         becomes part of the confidence. Off by default: on the tuning half of
         ``bench_rgb_only.py`` it left the mean IoU unchanged (0.582) and cost
         2-15 s per scene (``docs/results.md``).
+    camera_model : str
+        The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     seed : int
     """
 
@@ -477,7 +498,11 @@ class SfmLifter:
         fill_confidence: float = 0.25,
         seed: int | None = 0,
         consistency: bool = False,
+        camera_model: str = "SIMPLE_PINHOLE",
     ) -> None:
+        if camera_model not in CAMERA_MODELS:
+            raise ValueError(f"unknown camera_model {camera_model!r}; choose one of {', '.join(CAMERA_MODELS)}")
+        self.camera_model = camera_model
         self.consistency = consistency
         self.fill = fill
         self.fill_confidence = fill_confidence
@@ -501,6 +526,7 @@ class SfmLifter:
             peak_threshold=self.peak_threshold,
             min_tri_angle=self.min_tri_angle,
             seed=self.seed,
+            camera_model=self.camera_model,
         )
         if rec.num_registered < 2 or n < 2:
             missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
