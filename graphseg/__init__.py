@@ -11,7 +11,7 @@ from typing import Any
 
 from ._version import __version__
 
-__all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result", "run_job", "evaluate_output"]
+__all__ = ["__version__", "segment", "Scene", "View", "Matches", "Config", "Result", "run_job", "evaluate_output", "SceneGraph"]
 
 
 def __getattr__(name: str) -> Any:  # lazy top-level API (PEP 562)
@@ -35,4 +35,8 @@ def __getattr__(name: str) -> Any:  # lazy top-level API (PEP 562)
         from .result import Result
 
         return Result
+    if name == "SceneGraph":
+        from .store import SceneGraph
+
+        return SceneGraph
     raise AttributeError(f"module 'graphseg' has no attribute {name!r}")

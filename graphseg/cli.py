@@ -10,7 +10,9 @@ went away, as in ``graphseg info OUT | head -1``: nothing is printed on stderr,
 and the output files of ``run`` are complete (they are written before anything
 is printed).
 
-Commands: ``run``, ``eval``, ``synth``, ``demo``, ``export``, ``info``
+Commands: ``run``, ``eval``, ``synth``, ``demo``, ``export``, ``info``, ``batch``,
+``add`` (a store that grows view by view, :mod:`graphseg.store`; ``run``, ``eval``,
+``export`` and ``info`` accept a store too), ``suggest`` (the next view of a store)
 (``graphseg COMMAND --help`` for each).
 """
 
@@ -137,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command")
 
     r = sub.add_parser("run", help="segment a scene and write the output folder")
-    r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP)")
+    r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP), or a store (graphseg add): its current result is written")
     r.add_argument("-o", "--out", required=True, help="output folder: must not exist, or be an earlier `graphseg run` output (else pass --overwrite)")
     r.add_argument("--config", help="YAML/JSON config file; its keys override the --preset in use")
     r.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases and jumps over 10 cm, smooth_adjacency, DBSCAN-cleaned Chamfer points and the constrained contractor; multicut: robust with greedy additive edge contraction and no colour test in smooth_adjacency); --config overrides it key by key")
@@ -156,7 +158,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(r, overwrite=True)
 
     e = sub.add_parser("eval", help="print the metrics of an output folder against ground truth")
-    e.add_argument("out", help="output folder of graphseg run")
+    e.add_argument("out", help="output folder of graphseg run, or a store (graphseg add)")
     e.add_argument("--scene", help="scene with ground truth (default: the one recorded in run.json); its view names must match")
     e.add_argument("--json", help="also write the metrics to this JSON file (a new file, or --overwrite)")
     e.add_argument("--audit", action="store_true", help="also audit the edges against the ground truth (wrong edges per stage, impure masks, min cut per merge error); with --json the audit is written under the key 'audit'")
@@ -183,14 +185,14 @@ def build_parser() -> argparse.ArgumentParser:
     _common(d, overwrite=True)
 
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
-    x.add_argument("out")
+    x.add_argument("out", help="output folder of graphseg run, or a store (graphseg add)")
     x.add_argument("--stage", type=int, help="stage to export (0 = the mask graph); default: every stage for --graphml, stage 0 for --pyg")
     x.add_argument("--graphml", help="write the graph of --stage as GraphML here; without --stage, stage 0 here and stage S next to it as NAME_stageS.graphml")
     x.add_argument("--pyg", help="write the graph of --stage (default 0) as a dict of torch tensors, readable with plain torch.load(path) (needs graphseg[torch])")
     x.add_argument("--ply", help="write one PLY per object into this folder")
     _common(x, overwrite=True)
 
-    i = sub.add_parser("info", help="describe an output folder or a scene")
+    i = sub.add_parser("info", help="describe an output folder, a store or a scene")
     i.add_argument("path")
     _common(i)
 
@@ -214,6 +216,26 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--retries", type=int, default=2, help="Ray retries of a task whose worker died")
     b.add_argument("--report", metavar="OUT", help="only rebuild the aggregate of an existing batch folder")
     _common(b)
+
+    a = sub.add_parser("add", help="add views to a store: a scene graph that grows view by view (created if missing)")
+    a.add_argument("store", help="store folder: new, or an earlier graphseg store")
+    a.add_argument("inputs", nargs="+", metavar="PHOTO_OR_SCENE", help="scene folders (every view, or --views / --step / --num-views) and image files")
+    a.add_argument("--config", help="YAML/JSON config file for a new store (a store keeps the configuration it was created with)")
+    a.add_argument("--preset", choices=PRESET_NAMES, help="configuration preset of a new store (default: rgbd)")
+    a.add_argument("--segmenter", help="segmenter name (default from the store's config)")
+    a.add_argument("--matcher", help="matcher name (default from the store's config)")
+    a.add_argument("--lifter", help="lifter name (default: rgbd when the views have depth; a scene-level lifter such as sfm lifts every view again at each add)")
+    a.add_argument("--backend-option", action="append", default=[], metavar="NAME.KEY=VALUE", help="option KEY of backend NAME, for a new store")
+    a.add_argument("--seed", type=int, help="random seed of a new store (>= 0)")
+    _views_args(a)
+    _common(a)
+
+    g = sub.add_parser("suggest", help="rank candidate camera poses for the next view of a store (next-best-view)")
+    g.add_argument("store", help="a store (graphseg add)")
+    g.add_argument("--candidates", metavar="FILE", help="candidate cam_to_world poses: .npy [C, 4, 4] or JSON (a list of 4x4 matrices); default: sampled around the scene")
+    g.add_argument("-n", type=int, default=5, metavar="K", help="print the K best candidates (default 5)")
+    g.add_argument("--seed", type=int, help="random start of the sampled candidate rings")
+    _common(g)
     return ap
 
 
@@ -413,7 +435,10 @@ def _print_job(job: Any, args: argparse.Namespace, t: float) -> None:
 # ----------------------------------------------------------------------------- commands
 def cmd_run(args: argparse.Namespace) -> int:
     from .job import run_job
+    from .store.commands import is_store
 
+    if is_store(args.scene):
+        return _run_store(args)
     cfg = _config(args)
     sel = _selection(args)
     inputs = [p for p in (getattr(args, "masks", None), getattr(args, "config", None)) if p]
@@ -434,6 +459,59 @@ def cmd_run(args: argparse.Namespace) -> int:
     if asked is not None and used < asked:  # the readers select min(asked, views) views
         _warn(f"--num-views {asked}: the scene has {used} views; using all {used}", args)
     _print_job(job, args, t)
+    return 0
+
+
+def _run_store(args: argparse.Namespace) -> int:
+    """``graphseg run STORE -o OUT``: write the store's current result as a run output."""
+    from .output import write_output
+    from .store.commands import store_output
+
+    for flag in ("config", "segmenter", "matcher", "lifter", "masks", "matches", "points", "parts", "method", "seed", "views", "step", "num_views"):
+        if getattr(args, flag, None) is not None:
+            raise BadInput(f"{args.scene}: --{flag.replace('_', '-')}: a store keeps its own configuration and views (add views with graphseg add)")
+    if args.no_3d or args.backend_option:
+        raise BadInput(f"{args.scene}: {'--no-3d' if args.no_3d else '--backend-option'}: a store keeps its own configuration (add views with graphseg add)")
+    t = time.perf_counter()
+    result, scene, info, metrics = store_output(args.scene)
+    moved: list[tuple[Path, Path]] = []
+    out = write_output(args.out, result, scene, metrics=metrics, run_info=info, inputs=[args.scene], overwrite=args.overwrite, moved=moved)
+    for w in result.info.get("warnings", []):
+        _warn(w, args)
+    _kept(moved, args, shown=args.out, kind="run")
+    print(f"{result.num_objects} objects in {len(scene)} views of store generation {info['store']['generation']} ({time.perf_counter() - t:.1f} s){_dropped(result)}")
+    if metrics:
+        print(_metrics_table(metrics))
+    print(_printable(f"output: {out}"))
+    print(_printable(f"report: {out / 'report.html'}"))
+    return 0
+
+
+def cmd_add(args: argparse.Namespace) -> int:
+    """``graphseg add STORE PHOTO_OR_SCENE...``: the work is :func:`graphseg.store.commands.add_views`."""
+    from .store.commands import add_views, is_store, report_lines
+
+    explicit = args.config or args.preset or args.seed is not None or args.backend_option
+    if is_store(args.store) and explicit:
+        raise BadInput(f"{args.store}: --{'config' if args.config else 'preset' if args.preset else 'seed' if args.seed is not None else 'backend-option'}: a store keeps the configuration it was created with")
+    cfg = _config(args) if not is_store(args.store) else None
+    sel = _selection(args)
+    _, report = add_views(args.store, args.inputs, cfg, segmenter=args.segmenter, matcher=args.matcher, lifter=args.lifter, select=sel, progress=not _flag(args, "quiet"))
+    for w in report.warnings:
+        _warn(w, args)
+    for line in report_lines(report):
+        print(_printable(line))
+    return 0
+
+
+def cmd_suggest(args: argparse.Namespace) -> int:
+    """``graphseg suggest STORE``: the work is :func:`graphseg.store.commands.suggest_lines`."""
+    from .store.commands import suggest_lines
+
+    if args.n < 1:
+        raise BadInput(f"-n: expected an integer >= 1 (got {args.n})")
+    for line in suggest_lines(args.store, args.candidates, top=args.n, seed=args.seed):
+        print(_printable(line))
     return 0
 
 
@@ -461,7 +539,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
     if args.json:
         check_target(args.json, "export", inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, folder=False)
-    metrics = evaluate_output(args.out, args.scene, audit=args.audit)
+    from .store.commands import is_store, store_metrics
+
+    metrics = store_metrics(args.out, args.scene, audit=args.audit) if is_store(args.out) else evaluate_output(args.out, args.scene, audit=args.audit)
     if args.json:  # written before anything is printed, so that a closed stdout cannot stop it
         _write_json_file(args.json, metrics, inputs=[args.out] + ([args.scene] if args.scene else []), overwrite=args.overwrite, args=args)
     print(_metrics_table(metrics))
@@ -566,10 +646,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_export(args: argparse.Namespace) -> int:
     from .graphs import to_pyg, write_graphml
     from .output import atomic_file, atomic_folder, check_target, read_output, write_object_clouds
+    from .store.commands import is_store, store_result
 
     if not (args.graphml or args.pyg or args.ply):
         raise BadInput(f"{args.out}: export: name at least one of --graphml, --pyg, --ply")
-    result, _ = read_output(args.out)
+    result = store_result(args.out) if is_store(args.out) else read_output(args.out)[0]
     n = len(result.graphs)
     if args.stage is not None and not 0 <= args.stage < n:
         raise BadInput(f"{args.out}: --stage: expected 0..{n - 1} (got {args.stage})")
@@ -615,8 +696,13 @@ def cmd_export(args: argparse.Namespace) -> int:
 def cmd_info(args: argparse.Namespace) -> int:
     from .io import detect_format, load_scene
     from .output import RESULT_FILE, read_output
+    from .store.commands import info_lines, is_store
 
     p = Path(args.path)
+    if is_store(p):
+        for line in info_lines(p):
+            print(_printable(line))
+        return 0
     if (p / RESULT_FILE).exists():
         result, info = read_output(p)
         print(_printable(f"graphseg output: {p}"))
@@ -714,7 +800,7 @@ def _run_batch(args: argparse.Namespace, executor: Any, methods: list[str] | Non
     )
 
 
-COMMANDS = {"batch": cmd_batch, "run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_demo, "export": cmd_export, "info": cmd_info}
+COMMANDS = {"batch": cmd_batch, "run": cmd_run, "eval": cmd_eval, "synth": cmd_synth, "demo": cmd_demo, "export": cmd_export, "info": cmd_info, "add": cmd_add, "suggest": cmd_suggest}
 
 
 @contextlib.contextmanager

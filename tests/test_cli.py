@@ -527,7 +527,7 @@ def test_other_broken_pipes_are_internal_errors(monkeypatch, tmp_path, capsys):
         (["run", "S", "-o", "O", "--method", "graphseg-mins"], "graphseg: error: --method: invalid choice 'graphseg-mins'; did you mean 'graphseg-minus'? (choose from graphseg, graphseg-minus, maskclustering, sam3d)"),
         (["synth", "-o", "O", "--layout", "stackd"], "graphseg: error: --layout: invalid choice 'stackd'; did you mean 'stacked'? (choose from spread, touching, stacked)"),
         (["demo", "--preset", "zzz"], "graphseg: error: --preset: invalid choice 'zzz'; (choose from rgbd, paper, robust, multicut)"),
-        (["rn", "S"], "graphseg: error: command: invalid choice 'rn'; did you mean 'run'? (choose from run, eval, synth, demo, export, info, batch)"),
+        (["rn", "S"], "graphseg: error: command: invalid choice 'rn'; did you mean 'run'? (choose from run, eval, synth, demo, export, info, batch, add, suggest)"),
         (["run", "S"], "graphseg: error: -o/--out: required by graphseg run (see graphseg run --help)"),
         (["eval"], "graphseg: error: out: required by graphseg eval (see graphseg eval --help)"),
         (["run", "S", "-o", "O", "--seed", "abc"], "graphseg: error: --seed: expected an integer (got 'abc')"),
