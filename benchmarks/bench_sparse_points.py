@@ -33,14 +33,17 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from _common import print_table, write_json  # noqa: E402
 
 
-def measure(scene, points, cfg, tau=5e-5):
-    from graphseg.graphs.chamfer import node_point_sets
+def measure(scene, points, cfg):
+    from graphseg.graphs.chamfer import Chamfer3D, node_point_sets
     from graphseg.method.background import background_masks
     from graphseg.method.sparse_chamfer import (
+        SPACING_FACTOR,
         chamfer_edges,
         point_spacing,
         spacing_aware_chamfer_edges,
     )
+
+    o = Chamfer3D.Options(**cfg.criterion_options("chamfer_3d"))  # the preset's tau_3D (rgbd: the official code's 5e-5)
 
     labels, owner = [], []
     for v, view in enumerate(scene.views):
@@ -51,7 +54,7 @@ def measure(scene, points, cfg, tau=5e-5):
             owner.append((v, int(g)))
         labels.append(lab)
     owner = np.array(owner)
-    sets = node_point_sets(labels, points, len(owner), stride=cfg.chamfer_3d.stride, voxel_size=cfg.chamfer_3d.voxel_size)
+    sets = node_point_sets(labels, points, len(owner), stride=o.stride, voxel_size=o.voxel_size)
     sp = point_spacing(sets)
     same = (owner[:, None, 1] == owner[None, :, 1]) & (owner[:, None, 0] != owner[None, :, 0])
     diff = owner[:, None, 1] != owner[None, :, 1]
@@ -61,7 +64,9 @@ def measure(scene, points, cfg, tau=5e-5):
         "points_per_node": float(np.median(sets.sizes())),
         "spacing_mm": float(np.nanmedian(sp) * 1000),
     }
-    for name, es in (("fixed", chamfer_edges(sets, tau)), ("spacing", spacing_aware_chamfer_edges(sets, tau))):
+    fixed = chamfer_edges(sets, o.tau, prune=o.prune)
+    spacing = spacing_aware_chamfer_edges(sets, o.tau, factor=SPACING_FACTOR, prune=o.prune)
+    for name, es in (("fixed", fixed), ("spacing", spacing)):
         A = np.zeros((len(owner), len(owner)), bool)
         A[es.edge_index[0], es.edge_index[1]] = True
         A |= A.T

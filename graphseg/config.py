@@ -83,6 +83,8 @@ __all__ = [
     "OutputConfig",
     "BackendConfig",
     "PRESETS",
+    "DEFAULT_PRESET",
+    "PRESET_NAMES",
     "load_yaml_text",
     "validation_message",
     "load_error_message",
@@ -653,6 +655,15 @@ def _deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     for k, v in over.items():
         out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
     return out
+
+
+#: The preset the command line (``run``, ``demo``, ``batch``, a new store) and
+#: :func:`graphseg.batch.run_batch` start from: measured for metric RGB-D input.
+#: ``Config()`` itself is the paper's (``"paper"``).
+DEFAULT_PRESET: str = "rgbd"
+
+#: The names of :data:`PRESETS`, :data:`DEFAULT_PRESET` first (the ``--preset`` choices).
+PRESET_NAMES: tuple[str, ...] = (DEFAULT_PRESET, *(name for name in PRESETS if name != DEFAULT_PRESET))
 
 
 def load_yaml_text(text: str, *, max_nodes: int = 100_000) -> Any:

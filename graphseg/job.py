@@ -110,7 +110,10 @@ def resolve_backends(
     MissingDependencyError
         When a backend's package is not installed (the message names the extra).
     SceneError
-        When a backend rejects its options (field ``backends.options.NAME``).
+        When a backend rejects its options: its ``Options`` name the key
+        (field ``backends.options.NAME.KEY``, the valid keys and the closest
+        one); a backend class without ``Options`` is reported with field
+        ``backends.options.NAME``.
     """
     from .pipeline import backend_registry, resolve_backend
 

@@ -18,6 +18,7 @@ import time
 from os import PathLike
 from typing import Any
 
+from .backends.options import option_fields
 from .backends.registry import features as feature_registry
 from .backends.registry import lifters, matchers, segmenters
 from .config import Config
@@ -56,9 +57,10 @@ def resolve_backend(kind: str, spec: Any, config: Config | None = None) -> Any:
     kind : {"segmenter", "matcher", "lifter", "features"}
     spec : str, type or object
         A name is built with ``config.backends.options[name]``, plus the
-        run-wide settings its constructor takes and the options leave unset
-        (segmenters: ``seed``; matchers: ``num_matches`` and ``seed``). A class
-        is built with no options; an instance is returned as is.
+        run-wide settings its ``Options`` declare as fields and the options
+        leave unset (segmenters: ``seed``; matchers: ``num_matches`` and
+        ``seed``; see :func:`graphseg.backends.options.option_fields`). A
+        class is built with no options; an instance is returned as is.
     config : Config, optional
         Default ``Config()``.
 
@@ -66,13 +68,20 @@ def resolve_backend(kind: str, spec: Any, config: Config | None = None) -> Any:
     ------
     PluginNotFoundError
         For an unknown name (the message lists the installed choices).
+    SceneError
+        When the backend rejects its options: one line naming the key
+        (``backends.options.NAME.KEY``), the valid keys and the closest one.
     TypeError, ValueError
-        When the backend rejects its options.
+        When a backend without ``Options`` rejects its options.
 
     Examples
     --------
-    >>> resolve_backend("matcher", "reprojection", Config(seed=3)).seed
+    >>> resolve_backend("matcher", "reprojection", Config(seed=3)).options.seed
     3
+    >>> resolve_backend("matcher", "reprojection", Config(backends={"options": {"reprojection": {"strid": 2}}}))
+    Traceback (most recent call last):
+    ...
+    graphseg.scene.SceneError: backends.options.reprojection.strid: unknown option 'strid'; valid keys: num_matches, seed, abs_tol, rel_tol, stride; did you mean 'stride'?
     """
     cfg = config or Config()
     return _resolve(backend_registry(kind), spec, cfg, _run_settings(kind, cfg))
@@ -81,12 +90,9 @@ def resolve_backend(kind: str, spec: Any, config: Config | None = None) -> Any:
 def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None = None) -> Any:
     if isinstance(spec, str):
         opts = dict(cfg.backends.options.get(spec, {}))
-        cls = registry.get(spec)
         if extra:
-            import inspect
-
-            params = inspect.signature(cls).parameters
-            opts.update({k: v for k, v in extra.items() if k in params and k not in opts})
+            fields = option_fields(registry.get(spec))  # declared in the backend's Options
+            opts.update({k: v for k, v in extra.items() if k in fields and k not in opts})
         return registry.resolve(spec, **opts)
     return registry.resolve(spec)
 

@@ -1,9 +1,11 @@
 """docs/plugins.md runs as written: its package files, entry points, code and config."""
 
 import re
+import runpy
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tomllib
 
@@ -63,6 +65,13 @@ def test_plugins_tutorial_runs_and_its_criteria_work(extras_installed, tmp_path,
     assert ns["touch"].info["stages"][1]["adders"]["touching"]["edges"] > 0
     assert ns["touch"].num_objects == truth
     assert f"{ns['minus'].num_objects} -> 2" in out and "[['pixel_match']]" in out
+    # the backend plugins and the contractor, by name through their entry points: the millimetre
+    # lifter with label propagation gives exactly the built-in rgbd lifter's objects with union-find
+    builtin, plugins = ns["builtin"], ns["plugins"]
+    assert builtin.num_objects == plugins.num_objects == truth
+    assert all(np.array_equal(a, b) for a, b in zip(builtin.labels, plugins.labels))
+    assert plugins.config.contractor.name == "label_propagation"
+    assert ns["mixed"].num_objects == 3 and f"{builtin.num_objects} {plugins.num_objects}" in out  # as the page says
 
     # the YAML config of the page, loaded and run
     (yaml_text,) = blocks("plugins.md", "yaml")
@@ -82,6 +91,66 @@ def test_plugins_tutorial_runs_and_its_criteria_work(extras_installed, tmp_path,
     (tmp_path / "bad2.yaml").write_text(yaml_text.replace("mean_colour", "mean_color"))
     with pytest.raises(Exception, match=re.escape("unknown edge criterion 'mean_color'; installed choices: pixel_match, chamfer_3d, dino")):
         Config.load(tmp_path / "bad2.yaml")
+
+
+#: The entry-point group of each plugin kind and its registry.
+KIND_REGISTRIES = {
+    "graphseg.edge_adders": "graphseg.graphs.registry:edge_adders",
+    "graphseg.segmenters": "graphseg.backends.registry:segmenters",
+    "graphseg.matchers": "graphseg.backends.registry:matchers",
+    "graphseg.lifters": "graphseg.backends.registry:lifters",
+    "graphseg.contractors": "graphseg.graphs.registry:contractors",
+}
+
+
+def _registry(target):
+    import importlib
+
+    module, attr = target.split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def test_every_plugin_kind_is_one_module_its_test_and_an_entry_point(extras_installed):
+    """Issue 24: a criterion, a segmenter, a matcher, a lifter and a contractor, each one module plus its test."""
+    files = [m.group(1) for body in blocks("plugins.md", "python") if (m := re.fullmatch(r"# (\S+\.py)", body.splitlines()[0]))]
+    modules = {f for f in files if f.startswith("graphseg_extras/")}
+    tests = {f for f in files if f.startswith("tests/")}
+    (toml,) = blocks("plugins.md", "toml")
+    groups = tomllib.loads(toml)["project"]["entry-points"]
+    assert set(groups) == set(KIND_REGISTRIES)  # every kind has an example
+    for group, entries in groups.items():
+        for name, target in entries.items():
+            cls = _registry(KIND_REGISTRIES[group]).get(name)  # found through the installed entry point
+            module, attr = target.split(":")
+            assert (cls.__module__, cls.__name__, cls.name) == (module, attr, name)
+            path = module.replace(".", "/") + ".py"
+            assert path in modules and f"tests/test_{Path(path).name}" in tests, path
+    assert len(modules) == len(tests) == 6
+    # every test of the page runs and passes
+    ran = []
+    for path in sorted(tests):
+        for fname, fn in runpy.run_path(str(extras_installed / path)).items():
+            if fname.startswith("test_") and callable(fn):
+                fn()
+                ran.append(fname)
+    assert len(ran) == 11, ran
+
+
+def test_the_backend_plugins_get_run_wide_settings_and_one_line_errors(extras_installed):
+    from pydantic import ValidationError
+
+    from graphseg.job import resolve_backends
+    from graphseg.pipeline import resolve_backend
+    from graphseg.scene import SceneError
+
+    assert resolve_backend("matcher", "orb", Config(backends={"num_matches": 77})).options.num_matches == 77  # a declared field
+    cfg = Config(backends={"segmenter": "colour_regions", "options": {"colour_regions": {"levles": 3}}})
+    with pytest.raises(SceneError) as err:
+        resolve_backends(cfg)
+    assert str(err.value) == "backends.options.colour_regions.levles: unknown option 'levles'; valid keys: levels, min_area; did you mean 'levels'?"
+    assert str(err.value) in (DOCS / "plugins.md").read_text().replace("\n", " ")
+    with pytest.raises(ValidationError, match="label_propagation: unknown option 'max_round'; valid options: max_rounds; did you mean 'max_rounds'"):
+        Config(contractor={"label_propagation": {"max_round": 100}})
 
 
 def test_architecture_page_points_to_the_tutorial():

@@ -9,6 +9,9 @@ concavely towards a neighbour (LCCP's test on camera-frame normals:
 pixels from the segments, splits each segment into its connected pieces and
 gives the crease pixels back to the nearest piece.
 
+The defaults live in :class:`ConvexitySegmenter.Options`; the pure functions
+take every option as a required keyword.
+
 Examples
 --------
 >>> import numpy as np
@@ -16,25 +19,25 @@ Examples
 >>> x, y = (xs - 19.5) * 0.002, (ys - 20) * 0.002
 >>> valley = np.stack([x, y, 0.5 - 0.5 * np.abs(x)], -1)      # two planes meeting in a concave crease
 >>> seg = np.zeros((40, 40), np.int32); seg[8:32] = 1          # away from the borders (no normals there)
->>> out = split_concave(seg, valley, threshold=0.2)
+>>> out = split_concave(seg, valley, threshold=0.2, normal_step=4, reach=3, min_area=200)
 >>> sorted(np.unique(out).tolist()), bool(out[20, 5] != out[20, 34])
 ([0, 1, 2], True)
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
+from pydantic import Field
 
 from ..geometry import point_normals
 from ..scene import SceneError, View
-from .segmenters import check_geometric_options, geometric_segments
+from .options import Backend
+from .segmenters import GeometricOptions, geometric_segments
 
 __all__ = ["concave_creases", "split_concave", "ConvexitySegmenter"]
 
 
-def concave_creases(points: np.ndarray, *, threshold: float = 0.2, normal_step: int = 4, reach: int = 3) -> np.ndarray:
+def concave_creases(points: np.ndarray, *, threshold: float, normal_step: int, reach: int) -> np.ndarray:
     """Pixels where the surface folds concavely (bool ``[H, W]``).
 
     Parameters
@@ -57,7 +60,7 @@ def concave_creases(points: np.ndarray, *, threshold: float = 0.2, normal_step: 
 
     Examples
     --------
-    >>> concave_creases(np.zeros((4, 4, 3), np.float32)).any()
+    >>> concave_creases(np.zeros((4, 4, 3), np.float32), threshold=0.2, normal_step=4, reach=3).any()
     np.False_
     """
     p = np.asarray(points, np.float32)
@@ -77,7 +80,7 @@ def concave_creases(points: np.ndarray, *, threshold: float = 0.2, normal_step: 
     return out
 
 
-def split_concave(segments: np.ndarray, points: np.ndarray, *, threshold: float = 0.2, normal_step: int = 4, reach: int = 3, min_area: int = 200) -> np.ndarray:
+def split_concave(segments: np.ndarray, points: np.ndarray, *, threshold: float, normal_step: int, reach: int, min_area: int) -> np.ndarray:
     """Split each segment of a label image along its concave creases.
 
     Parameters
@@ -127,25 +130,30 @@ def split_concave(segments: np.ndarray, points: np.ndarray, *, threshold: float 
     return out
 
 
-class ConvexitySegmenter:
+class ConvexitySegmenter(Backend):
     """The ``convexity`` segmenter: :func:`geometric_segments`, then :func:`split_concave`.
 
     Options ``threshold``, ``normal_step``, ``reach``, ``min_area`` go to
-    :func:`split_concave`; any other options to :func:`geometric_segments`.
+    :func:`split_concave`; the other :class:`~graphseg.backends.segmenters.GeometricOptions`
+    go to :func:`geometric_segments`, which runs with its own default ``min_area``.
     """
 
     name = "convexity"
 
-    def __init__(self, seed: int | None = 0, threshold: float = 0.2, normal_step: int = 4, reach: int = 3, min_area: int = 200, **options: Any) -> None:
-        check_geometric_options(options, "convexity", extra=("threshold", "normal_step", "reach", "min_area"))
-        self.seed = seed
-        self.split = {"threshold": threshold, "normal_step": normal_step, "reach": reach, "min_area": min_area}
-        self.options = options
+    class Options(GeometricOptions):
+        seed: int | None = Field(0, ge=0, description="the table plane's RANSAC (None: fresh entropy)")
+        threshold: float = Field(0.2, ge=0, description="concavity below -threshold is a crease (about twice the sine of half the fold angle)")
+        normal_step: int = Field(4, ge=1, description="pixel step of the normals' central differences")
+        reach: int = Field(3, ge=1, description="pixel distance of the compared pairs")
+        min_area: int = Field(200, ge=0, description="split_concave: smaller pieces are not kept apart (geometric_segments keeps its own min_area)")
 
     def __call__(self, view: View) -> np.ndarray:
         try:
             pts = view.camera_points()
         except SceneError as err:
             raise SceneError("the convexity segmenter needs depth + K or a point map", where=view.name, field="depth") from err
-        seg = geometric_segments(pts, view.rgb, rng=self.seed, **self.options)
-        return split_concave(seg, pts, **self.split)  # type: ignore[arg-type]
+        o = self.options
+        # min_area is split_concave's here; the geometric segments keep GeometricOptions' own
+        geometric = {**o.geometric_kwargs(), "min_area": GeometricOptions.model_fields["min_area"].default}
+        seg = geometric_segments(pts, view.rgb, rng=o.seed, **geometric)
+        return split_concave(seg, pts, threshold=o.threshold, normal_step=o.normal_step, reach=o.reach, min_area=o.min_area)

@@ -35,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..registry import MissingDependencyError
 from ..scene import Scene, SceneError, backproject
 from .align import Alignment, lift_from_alignment
+from .options import ModelBackend
 from .sam import IMAGENET_MEAN, IMAGENET_STD
 
 __all__ = ["DA3Lifter", "load_da3", "model_size_14", "resize_for_da3", "INSTALL"]
@@ -141,10 +142,11 @@ def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:
     return net.eval()
 
 
-class DA3Lifter:
+class DA3Lifter(ModelBackend):
     """The ``da3`` lifter (options: :class:`DA3Lifter.Options`)."""
 
     name = "da3"
+    extra = "da3"
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
@@ -157,8 +159,9 @@ class DA3Lifter:
         random_weights: bool = Field(False, description="testing and benchmarks only: no checkpoint, random weights")
         threads: int | None = Field(None, ge=1, description="torch CPU threads")
 
-    def __init__(self, **options: Any) -> None:
-        self.options = opts = self.Options(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        opts = self.options
         if opts.checkpoint is None and not opts.random_weights:
             raise SceneError(f"no checkpoint given; set --backend-option da3.checkpoint=PATH; {INSTALL}", where="da3", field="checkpoint")
         if opts.checkpoint is not None and not Path(opts.checkpoint).is_file():

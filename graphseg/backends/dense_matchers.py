@@ -113,8 +113,8 @@ class LoFTRMatcher(ModelBackend):
                 raise ValueError(f"expected a width and height that are multiples of 8 and >= 32 (got {list(v)})")
             return v
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         o = self.options
         require_backend("kornia", "loftr", "loftr")
         torch = require_backend("torch", "loftr", "loftr")
@@ -188,8 +188,8 @@ class RoMaMatcher(ModelBackend):
         symmetric: bool = True
         use_custom_corr: bool = False
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         o = self.options
         require_backend("torch", "roma", "roma")
         require_backend("kornia", "roma", "roma")

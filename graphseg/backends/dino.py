@@ -99,8 +99,8 @@ class DINOv2Features(ModelBackend):
         device: str = "cpu"
         providers: list[str] = Field(default_factory=lambda: ["CPUExecutionProvider"])
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         o = self.options
         self.onnx = str(o.checkpoint or "").lower().endswith(".onnx")
         field = "backends.options.dinov2"

@@ -53,6 +53,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from ..registry import MissingDependencyError, require
 from ..scene import Scene, SceneError
 from .align import PairPointMaps, finish_lift, global_align
+from .options import ModelBackend
 
 __all__ = ["DUSt3RLifter", "ROLES", "InputGeometry", "input_geometry", "model_size", "preprocess", "uncrop"]
 
@@ -244,10 +245,11 @@ def _intrinsics_to_image(K: np.ndarray, geometry: InputGeometry) -> np.ndarray:
     return scale_intrinsics(shift @ np.asarray(K, np.float64), geometry.resized, geometry.shape)
 
 
-class DUSt3RLifter:
+class DUSt3RLifter(ModelBackend):
     """The ``dust3r`` lifter (options: :class:`DUSt3RLifter.Options`)."""
 
     name = "dust3r"
+    extra = "dust3r"
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
@@ -264,8 +266,9 @@ class DUSt3RLifter:
         threads: int | None = Field(None, ge=1, description="onnxruntime intra-op threads")
         seed: int | None = 0
 
-    def __init__(self, **options: Any) -> None:
-        self.options = opts = self.Options(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        opts = self.options
         if opts.encoder is None:
             raise SceneError(f"no checkpoint given; set --backend-option dust3r.encoder=PATH (and dust3r.decoder=PATH); {_HINT}", where="dust3r", field="encoder")
         enc = Path(opts.encoder)

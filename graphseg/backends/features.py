@@ -15,28 +15,32 @@ Examples
 from __future__ import annotations
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..scene import View
+from .options import Backend
 
 __all__ = ["ColorFeatures"]
 
 
-class ColorFeatures:
+class ColorFeatures(Backend):
     """Blurred CIE Lab colour per pixel, ``[H / downsample, W / downsample, 3]``, shifted so black is not the zero vector."""
 
     name = "color"
 
-    def __init__(self, downsample: int = 4, blur: float = 1.0) -> None:
-        self.downsample = downsample
-        self.blur = blur
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        downsample: int = Field(4, ge=1, description="output pixels are downsample x downsample image pixels")
+        blur: float = Field(1.0, ge=0, description="Gaussian sigma in pixels before downsampling (0: none)")
 
     def __call__(self, view: View) -> np.ndarray:
         import cv2
 
+        o = self.options
         rgb = np.ascontiguousarray(view.rgb)
         lab: np.ndarray = cv2.cvtColor(rgb, cv2.COLOR_RGB2LAB).astype(np.float32)
-        if self.blur > 0:
-            lab = cv2.GaussianBlur(lab, (0, 0), self.blur)
+        if o.blur > 0:
+            lab = cv2.GaussianBlur(lab, (0, 0), o.blur)
         h, w = lab.shape[:2]
-        small = cv2.resize(lab, (max(1, w // self.downsample), max(1, h // self.downsample)), interpolation=cv2.INTER_AREA)
+        small = cv2.resize(lab, (max(1, w // o.downsample), max(1, h // o.downsample)), interpolation=cv2.INTER_AREA)
         return small + np.array([1.0, 0.0, 0.0], np.float32)

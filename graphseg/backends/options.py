@@ -1,29 +1,40 @@
-"""Options and checks shared by the model backends (``sam2``, ``loftr``, ``roma``, ...).
+"""The backend contract: one pydantic ``Options`` model per backend, and the checks shared by the model backends.
 
-A model backend declares its settings once, as a pydantic ``Options`` model
-(unknown keys forbidden), and takes them as constructor keywords. Users set
-them with ``--backend-option NAME.KEY=VALUE`` on the command line or under
-``backends: {options: {NAME: {KEY: VALUE}}}`` in the config file. Every check
-that can fail (package, checkpoint file, option value) runs in the constructor,
-before any image is processed, and fails with one line.
+Every registered backend (segmenters, matchers, lifters, feature extractors)
+derives from :class:`Backend` and declares its settings once, as a nested
+pydantic ``Options`` model (unknown keys forbidden) that holds every default.
+It is built one way: ``Backend(options)`` with an ``Options`` instance, or
+``Backend(**kwargs)`` validated into ``Options``; ``self.options`` holds the
+validated values. Users set them with ``--backend-option NAME.KEY=VALUE`` on
+the command line or under ``backends: {options: {NAME: {KEY: VALUE}}}`` in the
+config file. A misspelt or bad option fails in the constructor, before any
+image is processed, with one line naming the key, the valid keys and the
+closest one. Run-wide settings (``seed``, ``num_matches``) are ``Options``
+fields where a backend takes them; the pipeline fills them from the config
+when the options leave them unset (:func:`option_fields` says which).
+
+Model backends (``sam2``, ``loftr``, ``roma``, ...) derive from
+:class:`ModelBackend`, which adds the pip ``extra`` that installs their
+packages; every check that can fail (package, checkpoint file) runs in their
+constructor too.
 
 Examples
 --------
 >>> from pydantic import BaseModel, ConfigDict
->>> class Demo(ModelBackend):
-...     name, extra = "demo", "torch"
+>>> class Demo(Backend):
+...     name = "demo"
 ...     class Options(BaseModel):
 ...         model_config = ConfigDict(extra="forbid")
 ...         size: int = 4
->>> Demo(size=8).options.size
-8
+>>> Demo(size=8).options.size, Demo(Demo.Options(size=8)).options.size
+(8, 8)
 >>> import inspect; str(inspect.signature(Demo))
-'(*, size: int = 4)'
+'(options=None, /, *, size: int = 4)'
 >>> try:
 ...     Demo(sise=8)
 ... except ValueError as err:
 ...     print(err)
-backends.options.demo.sise: unknown option; valid keys: size; did you mean 'size'?
+backends.options.demo.sise: unknown option 'sise'; valid keys: size; did you mean 'size'?
 >>> class Scaled(ModelBackend):
 ...     name, extra = "scaled", "torch"
 ...     class Options(BaseModel):
@@ -39,6 +50,8 @@ backends.options.scaled.scale: expected a finite number (got nan)
 from __future__ import annotations
 
 import inspect
+import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -46,45 +59,134 @@ from pydantic import BaseModel, ValidationError
 
 from ..registry import MissingDependencyError
 from ..scene import SceneError
+from ..validation import NoOptions
 
-__all__ = ["ModelBackend", "validate_options", "require_backend", "checkpoint_path"]
+__all__ = ["Backend", "ModelBackend", "NoOptions", "validate_options", "backend_options", "option_fields", "require_backend", "checkpoint_path"]
 
 
-def validate_options(model: type[BaseModel], options: dict[str, Any], backend: str) -> Any:
+def validate_options(model: type[BaseModel], options: Mapping[str, Any], backend: str) -> Any:
     """Validate ``options`` against ``model``; raise one-line :class:`SceneError` naming the key.
 
     Parameters
     ----------
     model : pydantic model class
         The backend's ``Options`` (``extra="forbid"``).
-    options : dict
-        Keyword arguments given to the constructor.
+    options : mapping
+        Keyword arguments given to the constructor. Paths (``os.PathLike``)
+        are turned into strings first.
     backend : str
         Registry name, used in the field path ``backends.options.BACKEND.KEY``.
+
+    Returns
+    -------
+    pydantic model
+        The validated ``model`` instance.
 
     Raises
     ------
     SceneError
         For an unknown key (the message lists the valid keys and the closest
         one), a bad value, or a float that is NaN or infinite.
+
+    Examples
+    --------
+    >>> validate_options(NoOptions, {}, "rgbd")
+    NoOptions()
+    >>> try:
+    ...     validate_options(NoOptions, {"scale": 2}, "rgbd")
+    ... except SceneError as err:
+    ...     print(err)
+    backends.options.rgbd.scale: unknown option 'scale'; valid keys: (none)
     """
     from ..validation import did_you_mean, non_finite
 
+    data = {k: os.fspath(v) if isinstance(v, os.PathLike) else v for k, v in options.items()}
     try:
-        checked = model(**options)
+        checked = model(**data)
     except ValidationError as err:
         e = err.errors()[0]
         key = ".".join(str(p) for p in e["loc"]) or "?"
         field = f"backends.options.{backend}.{key}"
         if e["type"] == "extra_forbidden":
-            valid = ", ".join(model.model_fields)
+            valid = ", ".join(model.model_fields) or "(none)"
             hint = did_you_mean(str(e["loc"][-1]) if e["loc"] else key, model.model_fields)
-            raise SceneError(f"unknown option; valid keys: {valid}" + (f"; {hint}" if hint else ""), field=field) from None
-        raise SceneError(f"{e['msg']} (got {e.get('input')!r})", field=field) from None
+            raise SceneError(f"unknown option {key!r}; valid keys: {valid}" + (f"; {hint}" if hint else ""), field=field) from None
+        msg = str(e["msg"]).removeprefix("Value error, ")
+        got = repr(e.get("input"))
+        raise SceneError(msg if got in msg else f"{msg} (got {got})", field=field) from None
     bad = non_finite(checked)
     if bad is not None:
         raise SceneError(f"expected a finite number (got {bad[1]!r})", field=f"backends.options.{backend}.{bad[0]}")
     return checked
+
+
+def backend_options(cls: type, options: BaseModel | Mapping[str, Any] | None, kwargs: Mapping[str, Any]) -> Any:
+    """The validated ``Options`` of ``cls`` built as ``cls(options)`` or ``cls(**kwargs)``.
+
+    Parameters
+    ----------
+    cls : type
+        A backend class with ``name`` and ``Options``.
+    options : Options instance, mapping or None
+        An instance of ``cls.Options`` is used as is (its floats must be
+        finite); a mapping is validated like keywords.
+    kwargs : mapping
+        Options as keywords, validated by :func:`validate_options`; only
+        when ``options`` is None.
+
+    Raises
+    ------
+    SceneError
+        For a misspelt or bad option (one line, field ``backends.options.NAME.KEY``).
+    TypeError
+        When both forms are given, or ``options`` is of another type.
+
+    Examples
+    --------
+    >>> from graphseg.backends.matchers import ReprojectionMatcher
+    >>> backend_options(ReprojectionMatcher, {"stride": 2}, {}).stride
+    2
+    >>> backend_options(ReprojectionMatcher, ReprojectionMatcher.Options(), {"seed": 1})
+    Traceback (most recent call last):
+    ...
+    TypeError: reprojection: give options either as an Options instance or as keywords, not both
+    """
+    from ..validation import non_finite
+
+    model: type[BaseModel] = cls.Options  # type: ignore[attr-defined]
+    label = str(getattr(cls, "name", "") or cls.__name__)
+    if options is None or isinstance(options, Mapping):
+        if options is not None and kwargs:
+            raise TypeError(f"{label}: give options either as an Options instance or as keywords, not both")
+        return validate_options(model, kwargs if options is None else options, label)
+    if kwargs:
+        raise TypeError(f"{label}: give options either as an Options instance or as keywords, not both")
+    if not isinstance(options, model):
+        raise TypeError(f"{label}: expected {model.__name__} options (got {type(options).__name__})")
+    bad = non_finite(options)
+    if bad is not None:
+        raise SceneError(f"expected a finite number (got {bad[1]!r})", field=f"backends.options.{label}.{bad[0]}")
+    return options
+
+
+def option_fields(cls: Any) -> frozenset[str]:
+    """The option names a backend class declares (the fields of its ``Options``; none without one).
+
+    The pipeline passes a run-wide setting (``seed``, ``num_matches``) only to
+    backends that declare it.
+
+    Examples
+    --------
+    >>> from graphseg.backends.matchers import ReprojectionMatcher
+    >>> sorted(option_fields(ReprojectionMatcher) & {"seed", "num_matches"})
+    ['num_matches', 'seed']
+    >>> option_fields(object)
+    frozenset()
+    """
+    model = getattr(cls, "Options", None)
+    if isinstance(model, type) and issubclass(model, BaseModel):
+        return frozenset(model.model_fields)
+    return frozenset()
 
 
 # packages whose declared dependencies pull torchvision or opencv-python: installed without them
@@ -150,31 +252,51 @@ def checkpoint_path(path: str | Path | None, backend: str, extra: str, option: s
     return p
 
 
-class ModelBackend:
-    """Base of the model backends: ``Options`` validation and a keyword signature.
+def _signature(model: type[BaseModel]) -> inspect.Signature:
+    """``(options=None, /, *, field=default, ...)``: what ``help(Backend)`` shows."""
+    params = [inspect.Parameter("options", inspect.Parameter.POSITIONAL_ONLY, default=None)]
+    params += [
+        inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=f.get_default(call_default_factory=True), annotation=f.annotation)
+        for k, f in model.model_fields.items()
+    ]
+    return inspect.Signature(params)
 
-    Subclasses set ``name`` (registry name), ``extra`` (pip extra) and a nested
-    pydantic ``Options`` class; ``self.options`` holds the validated values.
-    ``inspect.signature(cls)`` lists the option fields, so the pipeline can pass
-    ``seed`` and ``num_matches`` to the backends that take them.
+
+class Backend:
+    """Base of every backend: ``name`` and one pydantic ``Options`` model that holds its defaults.
+
+    Parameters
+    ----------
+    options : Options instance or mapping, optional
+        The settings (default: all defaults).
+    **kwargs
+        The settings as keywords, validated into ``Options``.
+
+    Notes
+    -----
+    Subclasses set ``name`` (the registry name) and a nested ``Options``
+    (``extra="forbid"``; default: no options) and implement ``__call__``
+    (a segmenter takes a view, a matcher two views, a lifter a scene, a
+    feature extractor a view). A subclass that checks more in its
+    constructor calls ``super().__init__(options, **kwargs)`` first.
+    ``inspect.signature(cls)`` lists the option fields.
     """
 
-    name: ClassVar[str]
-    extra: ClassVar[str]
-    Options: ClassVar[type[BaseModel]]
+    name: ClassVar[str] = ""
+    Options: ClassVar[type[BaseModel]] = NoOptions
 
-    def __init__(self, **options: Any) -> None:
-        self.options = validate_options(self.Options, options, self.name)
+    def __init__(self, options: BaseModel | Mapping[str, Any] | None = None, /, **kwargs: Any) -> None:
+        self.options: Any = backend_options(type(self), options, kwargs)
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
-        opts = getattr(cls, "Options", None)
-        if opts is not None:
-            params = [
-                inspect.Parameter(k, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.annotation)
-                for k, f in opts.model_fields.items()
-            ]
-            cls.__signature__ = inspect.Signature(params)  # type: ignore[attr-defined]
+        cls.__signature__ = _signature(cls.Options)  # type: ignore[attr-defined]
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.options!r})"
+
+
+class ModelBackend(Backend):
+    """Base of the model backends: a :class:`Backend` with the pip ``extra`` that installs its packages."""
+
+    extra: ClassVar[str]

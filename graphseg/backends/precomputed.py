@@ -25,10 +25,11 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
 
 from ..io.precomputed import apply_point_maps, pair_file_name, peek_pair_names, read_pair_matches
 from ..scene import Matches, Scene, SceneError, View
+from .options import Backend
 
 __all__ = ["PrecomputedLifter", "PrecomputedMatcher", "precomputed_choice"]
 
@@ -49,41 +50,37 @@ def _folder(folder: str | os.PathLike[str] | None, backend: str, field: str) -> 
     return root
 
 
-class PrecomputedLifter:
+class PrecomputedLifter(Backend):
     """The ``precomputed-points`` lifter: point maps read from ``folder`` (see :func:`~graphseg.io.precomputed.read_point_map`)."""
 
     name = "precomputed-points"
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
-        folder: str | None = None
+        folder: str | None = Field(None, description="the point-map folder (required)")
 
-    def __init__(self, **options: Any) -> None:
-        if isinstance(options.get("folder"), os.PathLike):
-            options["folder"] = os.fspath(options["folder"])
-        self.folder = _folder(self.Options(**options).folder, "lifter", "points")
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        self.folder = _folder(self.options.folder, "lifter", "points")
 
     def __call__(self, scene: Scene) -> Scene:
         return apply_point_maps(scene, self.folder)
 
 
-class PrecomputedMatcher:
+class PrecomputedMatcher(Backend):
     """The ``precomputed-matches`` matcher: ``folder/VIEWI__VIEWJ.npz`` (either order) per pair."""
 
     name = "precomputed-matches"
 
     class Options(BaseModel):
         model_config = ConfigDict(extra="forbid")
-        folder: str | None = None
-        missing: Literal["empty", "error"] = "empty"
-        num_matches: int | None = None
+        folder: str | None = Field(None, description="the matches folder (required)")
+        missing: Literal["empty", "error"] = Field("empty", description="a pair without a file: no matches ('empty') or an error")
+        num_matches: int | None = Field(None, ge=1, description="matches kept per pair, most certain first (None: all; filled from the config)")
 
-    def __init__(self, folder: str | os.PathLike[str] | None = None, missing: str = "empty", num_matches: int | None = None) -> None:
-        opts = self.Options(folder=None if folder is None else str(folder), missing=missing, num_matches=num_matches)
-        self.folder = _folder(opts.folder, "matcher", "matches")
-        self.missing = opts.missing
-        self.num_matches = opts.num_matches
-
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        self.folder = _folder(self.options.folder, "matcher", "matches")
         self._index: dict[tuple[str, str], Path] | None = None
 
     def _files(self) -> dict[tuple[str, str], Path]:
@@ -106,12 +103,12 @@ class PrecomputedMatcher:
         elif bwd is not None:
             _, _, r = read_pair_matches(bwd, (view_j.shape, view_i.shape))
             m = Matches(r.xy_j, r.xy_i, r.certainty)
-        elif self.missing == "error":
+        elif self.options.missing == "error":
             fname = self.folder / pair_file_name(view_i.name, view_j.name)
             raise SceneError(f"no matches for the pair ({view_i.name!r}, {view_j.name!r})", where=str(fname), field="matches")
         else:
             m = Matches(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(0))
-        return m.top(self.num_matches)
+        return m.top(self.options.num_matches)
 
 
 def precomputed_choice(flag: str, folder: str | os.PathLike[str], chosen: str | None) -> tuple[str, dict[str, str]]:

@@ -224,8 +224,8 @@ class SAM2Segmenter(ModelBackend):
         image_size: int | None = Field(None, ge=16)
         device: str = "cpu"
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         o = self.options
         self.model = load_sam2(o.checkpoint, o.config, image_size=o.image_size, device=o.device)
 
@@ -282,8 +282,8 @@ class SamOnnxSegmenter(ModelBackend):
         batch_prompts: bool = True
         providers: list[str] = Field(default_factory=lambda: ["CPUExecutionProvider"])
 
-    def __init__(self, **options: Any) -> None:
-        super().__init__(**options)
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         o = self.options
         ort = require_backend("onnxruntime", "sam-onnx", "onnx", option="encoder")
         enc = checkpoint_path(o.encoder, "sam-onnx", "onnx", option="encoder")

