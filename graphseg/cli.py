@@ -31,10 +31,13 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any, NoReturn, TextIO
 
+from .presets import (  # plain data: the CLI imports no pydantic at start
+    DEFAULT_PRESET,
+    PRESET_NAMES,
+)
+
 __all__ = ["main", "build_parser", "parse_backend_option", "PRESET_NAMES"]
 
-#: The names of :data:`graphseg.config.PRESETS` (written out so that ``--help`` imports no config code; a test keeps them equal).
-PRESET_NAMES = ("rgbd", "paper", "robust", "multicut")  # the keys of graphseg.config.PRESETS (tests/test_cli.py checks), kept here so the CLI imports no pydantic at start
 
 #: Exit status when standard output was closed by its reader (128 + SIGPIPE).
 EXIT_BROKEN_PIPE = 141
@@ -142,7 +145,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="scene folder (native, plain images, YCB-Video, GraspNet-1B or BOP), or a store (graphseg add): its current result is written")
     r.add_argument("-o", "--out", required=True, help="output folder: must not exist, or be an earlier `graphseg run` output (else pass --overwrite)")
     r.add_argument("--config", help="YAML/JSON config file; its keys override the --preset in use")
-    r.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="configuration preset (default: rgbd, measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases and jumps over 10 cm, smooth_adjacency, DBSCAN-cleaned Chamfer points and the constrained contractor; multicut: robust with greedy additive edge contraction and no colour test in smooth_adjacency); --config overrides it key by key")
+    r.add_argument("--preset", default=DEFAULT_PRESET, choices=PRESET_NAMES, help="configuration preset (default: %(default)s; rgbd: measured for metric RGB-D; paper: the paper's thresholds; robust: rgbd with cannot-links at concave creases and jumps over 10 cm, smooth_adjacency, DBSCAN-cleaned Chamfer points and the constrained contractor; multicut: robust with greedy additive edge contraction and no colour test in smooth_adjacency); --config overrides it key by key")
     r.add_argument("--segmenter", help="segmenter name (default from the config: geometric)")
     r.add_argument("--matcher", help="matcher name (default: reprojection)")
     r.add_argument("--lifter", help="lifter name (default: rgbd when the scene has depth, sfm when it has none)")
@@ -181,7 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--views", type=int, default=8, help="number of views (1..360)")
     d.add_argument("--objects", type=int, default=6, help="objects (1..16)")
-    d.add_argument("--preset", default="rgbd", choices=PRESET_NAMES)
+    d.add_argument("--preset", default=DEFAULT_PRESET, choices=PRESET_NAMES)
     _common(d, overwrite=True)
 
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
@@ -203,7 +206,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--videos", help="YCB-Video video ids of a dataset root, e.g. 0048,0049")
     b.add_argument("--method", help="comma-separated methods: graphseg, graphseg-minus (default graphseg unless --config is given)")
     b.add_argument("--config", action="append", help="config file swept as one more configuration (repeatable)")
-    b.add_argument("--preset", default="rgbd", choices=PRESET_NAMES, help="preset the methods start from")
+    b.add_argument("--preset", default=DEFAULT_PRESET, choices=PRESET_NAMES, help="preset the methods start from")
     b.add_argument("--num-views", default="all", help="comma-separated view counts, e.g. 3,5,10 ('all' = every view)")
     b.add_argument("--segmenter", help="segmenter name")
     b.add_argument("--matcher", help="matcher name")
@@ -221,7 +224,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("store", help="store folder: new, or an earlier graphseg store")
     a.add_argument("inputs", nargs="+", metavar="PHOTO_OR_SCENE", help="scene folders (every view, or --views / --step / --num-views) and image files")
     a.add_argument("--config", help="YAML/JSON config file for a new store (a store keeps the configuration it was created with)")
-    a.add_argument("--preset", choices=PRESET_NAMES, help="configuration preset of a new store (default: rgbd)")
+    a.add_argument("--preset", choices=PRESET_NAMES, help=f"configuration preset of a new store (default: {DEFAULT_PRESET})")
     a.add_argument("--segmenter", help="segmenter name (default from the store's config)")
     a.add_argument("--matcher", help="matcher name (default from the store's config)")
     a.add_argument("--lifter", help="lifter name (default: rgbd when the views have depth; a scene-level lifter such as sfm lifts every view again at each add)")
@@ -368,7 +371,7 @@ def _load_config(text: str, base: Any = None) -> Any:
 def _config(args: argparse.Namespace) -> Any:
     from .config import Config
 
-    cfg = Config.preset(getattr(args, "preset", None) or "rgbd")
+    cfg = Config.preset(getattr(args, "preset", None) or DEFAULT_PRESET)
     if getattr(args, "config", None):
         cfg = _load_config(args.config, base=cfg)
     seed = getattr(args, "seed", None)

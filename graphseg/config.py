@@ -69,6 +69,7 @@ from pydantic_core import PydanticCustomError
 
 from .background_config import BackgroundConfig
 from .background_config import SectionModel as _Model
+from .presets import DEFAULT_PRESET, PRESET_NAMES, PRESETS
 
 __all__ = [
     "Config",
@@ -392,52 +393,6 @@ def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
 
 _DEFAULT_STAGES: list[list[Any]] = [["pixel_match"], ["chamfer_3d"]]
 
-#: Named configurations for :meth:`Config.preset`, written like a config file.
-PRESETS: dict[str, dict[str, Any]] = {
-    "paper": {},
-    "rgbd": {
-        "stages": [
-            [{"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}}],
-            [{"chamfer_3d": {"tau": 5e-5}}],
-        ],
-        "background": {"max_overlap": 0.5},
-    },
-    # rgbd plus the robust contraction of issue 12 (measured in docs/results.md, "Robust contraction")
-    "robust": {
-        "stages": [
-            [
-                {"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}},
-                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
-            ],
-            [
-                {"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan", "dbscan_min_samples": 15}},
-                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
-                {"smooth_adjacency": {"color": 20.0}},
-            ],
-        ],
-        "contractor": "constrained",
-        "background": {"max_overlap": 0.5},
-    },
-    # robust with greedy additive edge contraction and smooth_adjacency without its colour test
-    # (issue 21; chosen on the tune half of bench_ycb_views.py, measured in docs/results.md)
-    "multicut": {
-        "stages": [
-            [
-                {"pixel_match": {"normalization": "pair_hits", "tau": 0.3, "min_matches": 5}},
-                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
-            ],
-            [
-                {"chamfer_3d": {"tau": 5e-5, "outliers": "dbscan", "dbscan_min_samples": 15}},
-                {"depth_repulsion": {"jump": 0.1, "concave": 0.2, "fraction": 0.5, "reach": 4}},
-                {"smooth_adjacency": {"color": None}},
-            ],
-        ],
-        "contractor": "gaec",
-        "background": {"max_overlap": 0.5},
-    },
-}
-
-
 class Config(_Model):
     """Everything a GraphSeg run needs besides its inputs.
 
@@ -657,13 +612,6 @@ def _deep_merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-#: The preset the command line (``run``, ``demo``, ``batch``, a new store) and
-#: :func:`graphseg.batch.run_batch` start from: measured for metric RGB-D input.
-#: ``Config()`` itself is the paper's (``"paper"``).
-DEFAULT_PRESET: str = "rgbd"
-
-#: The names of :data:`PRESETS`, :data:`DEFAULT_PRESET` first (the ``--preset`` choices).
-PRESET_NAMES: tuple[str, ...] = (DEFAULT_PRESET, *(name for name in PRESETS if name != DEFAULT_PRESET))
 
 
 def load_yaml_text(text: str, *, max_nodes: int = 100_000) -> Any:

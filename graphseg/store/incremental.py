@@ -63,6 +63,7 @@ from ..graphs import (
 from ..method.masks import compose_masks, paint_masks
 from ..method.refine import refine_labels
 from ..method.segment import apply_min_support
+from ..published import TAU_3D_PAPER
 from ..result import Result
 from ..scene import Matches, SceneError, View
 from .background import view_background
@@ -381,7 +382,7 @@ def _criterion_edges(
             ei, attrs = es.edge_index, dict(es.edge_attr)
         else:
             o = spec.options
-            margin = np.inf if o.get("spacing_factor") is not None else float(np.sqrt(o.get("tau", 5e-4))) * (1 + 1e-6) + 1e-9
+            margin = np.inf if o.get("spacing_factor") is not None else float(np.sqrt(o.get("tau", TAU_3D_PAPER))) * (1 + 1e-6) + 1e-9
             bbox = np.asarray(graph.node_attr.get("bbox_3d", np.full((graph.num_nodes, 6), np.nan)), np.float64)
             keep = np.ones(graph.num_nodes, bool) if not np.isfinite(margin) else _near(bbox, np.flatnonzero(dirty), margin)
             ev, idx = _sub_evidence(evidence, keep)

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import Config
+from ..config import DEFAULT_PRESET, Config
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .ids import assign_ids, deciding_edges
@@ -259,7 +259,7 @@ class SceneGraph:
         path : path-like
             A store folder, or (``create``) a path that does not exist.
         config : Config, optional
-            For a new store (default ``Config.preset("rgbd")``); for an existing
+            For a new store (default ``Config.preset(DEFAULT_PRESET)``); for an existing
             one it must equal the store's configuration.
         create : bool, keyword-only
         inputs : list of path-like, keyword-only
@@ -292,7 +292,7 @@ class SceneGraph:
             raise StoreError("exists and is not a graphseg store (choose a new folder)", where=where, field="store")
         if not create:
             raise StoreError("no such store", where=where, field="store")
-        cfg = (config or Config.preset("rgbd")).for_method()
+        cfg = (config or Config.preset(DEFAULT_PRESET)).for_method()
         root = create_store(p, cfg.to_dict(), inputs=inputs)
         pointer = read_pointer(root)
         return cls(root, pointer, read_state(root, pointer))
