@@ -464,28 +464,39 @@ class Config(_Model):
         """GraphSeg-minus, the paper's ablation: the 2D stage only."""
         return cls(**kwargs).without_3d()
 
-    def for_method(self) -> Config:
-        """The configuration ``method`` really runs: its stages and contractor.
+    @model_validator(mode="after")
+    def _method_stages(self) -> Config:
+        """``method`` becomes its stages and contractor here, when the config is built.
 
-        ``graphseg`` keeps the config as is; ``graphseg-minus`` drops the 3D
+        ``graphseg`` keeps the stages as given; ``graphseg-minus`` drops the 3D
         criteria; ``maskclustering`` and ``sam3d`` replace the stages (and use
         components contraction). Idempotent, so a saved config reloads to the
-        same run. :func:`graphseg.method.segment` applies it, so every entry
-        point runs what ``method`` names.
+        same run, and every entry point runs what ``method`` names.
+        """
+        if self.method == "graphseg":
+            return self
+        if self.method == "graphseg-minus":
+            want, contractor = self.without_3d().stages, self.contractor
+        else:
+            name = "view_consensus" if self.method == "maskclustering" else "bidirectional_overlap"
+            want = [[CriterionSpec.model_validate(name)] for _ in range(3 if self.method == "maskclustering" else 1)]
+            contractor = ContractorSpec.model_validate("star")
+        if want != self.stages or contractor != self.contractor:
+            self.__dict__.update(stages=want, contractor=contractor)  # the fields' own validators already ran on these
+        return self
+
+    def for_method(self) -> Config:
+        """The configuration ``method`` runs: the config itself, since the validator resolves ``method``.
+
+        Kept for callers of earlier versions.
 
         Examples
         --------
-        >>> Config(method="sam3d").for_method().stage_names()
+        >>> Config(method="sam3d").stage_names()
         [['bidirectional_overlap']]
         >>> Config(method="graphseg-minus").for_method().stage_names()
         [['pixel_match']]
         """
-        if self.method == "graphseg-minus":
-            return self.without_3d()
-        if self.method == "maskclustering":
-            return Config.model_validate({**self.to_dict(), "stages": [["view_consensus"]] * 3, "contractor": "star"})
-        if self.method == "sam3d":
-            return Config.model_validate({**self.to_dict(), "stages": [["bidirectional_overlap"]], "contractor": "star"})
         return self
 
     def without_3d(self) -> Config:

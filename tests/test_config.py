@@ -250,3 +250,16 @@ def test_lifted_points_get_their_own_criterion_options():
         Config(lifted={"criteria": {"chamfer_3d": {"fragment_ration": 0.5}}})
     with pytest.raises(ValidationError, match="nope"):
         Config(lifted={"criteria": {"nope": {}}})
+
+
+def test_method_becomes_stages_and_contractor_when_the_config_is_built():
+    """Issue 24: Config.method is resolved by the Config validator, not later by whoever runs it."""
+    sam3d = Config(method="sam3d")
+    assert sam3d.stage_names() == [["bidirectional_overlap"]] and sam3d.contractor.model_dump() == "star"
+    mc = Config.preset("rgbd", method="maskclustering")
+    assert mc.stage_names() == [["view_consensus"]] * 3 and mc.contractor.model_dump() == "star"
+    minus = Config.preset("robust", method="graphseg-minus")
+    assert all(c.info().dimension != "3d" for s in minus.stages for c in s) and minus.contractor == Config.preset("robust").contractor
+    for cfg in (sam3d, mc, minus):
+        assert Config.model_validate(cfg.to_dict()) == cfg and cfg.for_method() is cfg  # idempotent: a saved config reloads to the same run
+    assert Config.preset("rgbd").stage_names() == [["pixel_match"], ["chamfer_3d"]]  # graphseg keeps its stages
