@@ -37,7 +37,7 @@ def _rss_mb() -> float:
 def case_da3(model: str, views: int, size: int) -> dict:
     import numpy as np
 
-    from graphseg.backends.da3 import DA3Lifter, model_size_14
+    from graphseg.backends.lifters.da3 import DA3Lifter, model_size_14
     from graphseg.scene import Scene, View
 
     t = time.perf_counter()
@@ -61,7 +61,7 @@ def case_align(views: int) -> dict:
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests", "backends"))
     from test_align import rotation_error_deg, synthetic_pairs
 
-    from graphseg.backends.align import global_align, similarity_to_known_poses
+    from graphseg.backends.lifters.align import global_align, similarity_to_known_poses
     from graphseg.testing.scenes import box_scene, random_boxes
 
     scene = box_scene(random_boxes(1, 6), views=views, shape=(384, 512), arc_deg=300, rng=1)

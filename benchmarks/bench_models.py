@@ -80,7 +80,7 @@ def prepare(case: str, cache: Path) -> dict[str, str]:
     elif case == "roma":
         p, d = cache / "roma_outdoor.pth", cache / "dinov2_vitl14_pretrain.pth"
         if not (p.exists() and d.exists()):
-            from graphseg.backends.dino import build_dinov2
+            from graphseg.backends.features.dino import build_dinov2
 
             dino = build_dinov2("vitl14").state_dict()
             from romatch.models.matcher import RegressionMatcher
@@ -98,7 +98,7 @@ def prepare(case: str, cache: Path) -> dict[str, str]:
     elif case == "tiny-roma":
         p = cache / "tiny_roma_v1_outdoor.pth"
         if not p.exists():
-            from graphseg.backends.romatch_compat import import_romatch
+            from graphseg.backends.matchers.romatch_compat import import_romatch
 
             import_romatch()
             from kornia.feature import XFeatModel
@@ -110,7 +110,7 @@ def prepare(case: str, cache: Path) -> dict[str, str]:
         arch = case.split("-")[1]
         p = cache / f"dinov2_{arch}_pretrain.pth"
         if not p.exists():
-            from graphseg.backends.dino import build_dinov2
+            from graphseg.backends.features.dino import build_dinov2
 
             torch.save(build_dinov2(arch).state_dict(), p)
         out["checkpoint"] = str(p)
@@ -137,9 +137,9 @@ def measure(case: str, files: dict[str, str], grid: int) -> dict[str, object]:
     vi, vj = _pair()
     t: dict[str, object] = {}
     if case.startswith("sam2"):
-        from graphseg.backends.automask import generate_masks
         from graphseg.backends.registry import segmenters
-        from graphseg.backends.sam import AutomaskOptions, sam2_predictor
+        from graphseg.backends.segmenters.automask import generate_masks
+        from graphseg.backends.segmenters.sam import AutomaskOptions, sam2_predictor
 
         with _Clock(t, "load"):
             seg = segmenters.resolve("sam2", checkpoint=files["checkpoint"], points_per_side=grid)
@@ -153,7 +153,7 @@ def measure(case: str, files: dict[str, str], grid: int) -> dict[str, object]:
         t["masks"] = len(props.masks)
         t["grid32_estimate_s"] = round(float(t["encoder_s"]) + 16 * float(t["decoder_batch64_s"]), 2)  # type: ignore[arg-type]
     elif case in ("loftr", "roma", "tiny-roma"):
-        from graphseg.backends.dense_matchers import sample_by_certainty
+        from graphseg.backends.matchers.sampling import sample_by_certainty
         from graphseg.backends.registry import matchers
 
         with _Clock(t, "load"):

@@ -106,7 +106,7 @@ def _config(path: str | None):
 
 def _pose_errors(est, ref):
     """Scale, median rotation error (deg) and median centre error after the best similarity of camera centres."""
-    from graphseg.backends.align import umeyama
+    from graphseg.backends.lifters.align import umeyama
 
     s, R, t = umeyama(np.array([T[:3, 3] for T in est]), np.array([T[:3, 3] for T in ref]))
     rot, cen = [], []

@@ -84,7 +84,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--json", default="benchmarks/results/sparse_points.json")
     args = ap.parse_args(argv)
-    from graphseg.backends.sfm import SfmLifter
+    from graphseg.backends.lifters.sfm import SfmLifter
     from graphseg.config import Config
     from graphseg.pipeline import lift
     from graphseg.sim.pybullet_scenes import synthesize

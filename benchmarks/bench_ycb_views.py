@@ -96,7 +96,7 @@ def inputs(video: str, half: str, n: int, masks_kind: str, cache: Path | None):
     cfg = Config.preset("rgbd")
     scene = lift(load_scene(YCBV / video, views=frames(half, n)), None, cfg)
     if masks_kind == "hed":
-        from graphseg.backends.segmenters import GeometricSegmenter
+        from graphseg.backends.segmenters.geometric import GeometricSegmenter
 
         masks = compute_masks(scene, GeometricSegmenter(edges="hed"), cfg)
     else:

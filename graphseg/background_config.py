@@ -3,7 +3,7 @@
 :class:`BackgroundConfig` is the ``background`` section of a
 :class:`graphseg.config.Config` (which re-exports it); the geometric
 segmenter finds the table plane with the same settings
-(:data:`graphseg.backends.segmenters.SEGMENTER_PLANE`). It depends on
+(:data:`graphseg.backends.segmenters.geometric.SEGMENTER_PLANE`). It depends on
 pydantic only, so :mod:`graphseg.backends` may import it.
 
 Examples

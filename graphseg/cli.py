@@ -397,7 +397,7 @@ def _config(args: argparse.Namespace) -> Any:
         cfg = _with_backend_options(cfg, "precomputed", folder=str(folder.resolve()))
     for flag, kind in (("matches", "matcher"), ("points", "lifter")):
         if getattr(args, flag, None):
-            from .backends.precomputed import precomputed_choice
+            from .backends.precomputed_folders import precomputed_choice
 
             name, opts = precomputed_choice(flag, getattr(args, flag), getattr(args, kind))
             setattr(args, kind, name)

@@ -125,7 +125,7 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
         return scene
     default = cfg.backends.lifter
     if lifter is None and default == "rgbd" and not scene.has_depth:
-        default = "sfm"  # RGB-only: structure from motion + stereo (graphseg.backends.sfm)
+        default = "sfm"  # RGB-only: structure from motion + stereo (graphseg.backends.lifters.sfm)
     lifted = resolve_backend("lifter", lifter or default, cfg)(scene)
     lifted.meta["lifter"] = _name(lifter, default)
     return lifted
@@ -166,7 +166,7 @@ def compute_matches(
 
 def _given_masks(scene: Scene, masks: Any) -> list[Any]:
     if isinstance(masks, (str, PathLike)):
-        from .backends.segmenters import PrecomputedSegmenter
+        from .backends.segmenters.precomputed import PrecomputedSegmenter
 
         seg = PrecomputedSegmenter(folder=masks)
         return [seg(v) for v in scene.views]
@@ -207,7 +207,7 @@ def prepare(
     times: dict[str, float] = {}
     t = time.perf_counter()
     if points is not None:
-        from .backends.precomputed import PrecomputedLifter
+        from .backends.lifters.precomputed import PrecomputedLifter
 
         scene = lift(scene, PrecomputedLifter(folder=points), cfg)
         scene.meta["lifter"] = "precomputed"

@@ -198,7 +198,7 @@ def test_demo_small(tmp_path, capsys, monkeypatch):
 
 
 def test_run_with_precomputed_masks(scene_dir, tmp_path, capsys):
-    from graphseg.backends.segmenters import save_precomputed
+    from graphseg.backends.segmenters.precomputed import save_precomputed
 
     s = read_scene_folder(scene_dir)
     for v in s.views:
@@ -360,7 +360,7 @@ def test_run_never_modifies_its_inputs(small_scene, tmp_path_factory):
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as st
 
-    from graphseg.backends.segmenters import save_precomputed
+    from graphseg.backends.segmenters.precomputed import save_precomputed
     from graphseg.cli import main as cli_main
 
     template = tmp_path_factory.mktemp("prop-template")

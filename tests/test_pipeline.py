@@ -34,7 +34,7 @@ def test_backend_options_from_config_and_instances():
     assert all(len(x) <= 500 for x in m.values())
     r = run(scene, cfg, segmenter="oracle-parts")
     assert len(r.mask_object) == 3 * 2 * 3
-    from graphseg.backends.segmenters import OraclePartsSegmenter
+    from graphseg.backends.segmenters.oracle_parts import OraclePartsSegmenter
 
     r2 = run(scene, cfg, segmenter=OraclePartsSegmenter(parts=1))
     assert len(r2.mask_object) == 6
@@ -76,7 +76,7 @@ def test_robust_preset_keeps_touching_objects_apart_on_real_frames(ycbv_root):
     """YCB-Video 0002, 3 views: components contraction merges the can, banana and block
     (measured IoU 0.597, 4 objects for 6); the robust preset's cannot-links keep more apart
     (measured 0.712, 6 objects)."""
-    from graphseg.backends.segmenters import GeometricSegmenter
+    from graphseg.backends.segmenters.geometric import GeometricSegmenter
     from graphseg.io import load_scene
     from graphseg.metrics import evaluate
     from graphseg.pipeline import lift

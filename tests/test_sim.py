@@ -66,7 +66,7 @@ def test_synthesize_is_deterministic_with_valid_ground_truth():
     v = a.views[0]
     assert v.depth.dtype == np.float32 and set(np.unique(v.instances)) <= {0, *a.objects}
     # objects rest on the table: their lowest back-projected points sit near the table top
-    from graphseg.backends.lifters import RGBDLifter
+    from graphseg.backends.lifters.rgbd import RGBDLifter
     from graphseg.sim.pybullet_scenes import TABLE_TOP
 
     pts = RGBDLifter()(a).views[0].points

@@ -75,7 +75,7 @@ def _wrappers(model: Any) -> tuple[Any, Any]:
 
 
 def export_sam2_onnx(model: Any, out_dir: str | Path, *, opset: int = 17) -> tuple[Path, Path]:
-    """Export a loaded SAM 2 model (:func:`graphseg.backends.sam.load_sam2`) to ``encoder.onnx`` + ``decoder.onnx``.
+    """Export a loaded SAM 2 model (:func:`graphseg.backends.segmenters.sam.load_sam2`) to ``encoder.onnx`` + ``decoder.onnx``.
 
     Refuses to overwrite existing files. Returns the two paths.
     """
@@ -103,10 +103,10 @@ def export_sam2_onnx(model: Any, out_dir: str | Path, *, opset: int = 17) -> tup
 
 
 def export_dinov2_onnx(model: Any, out_path: str | Path, height: int, width: int, *, opset: int = 17) -> Path:
-    """Export a DINOv2 model (:func:`graphseg.backends.dino.build_dinov2` + weights) for one input size.
+    """Export a DINOv2 model (:func:`graphseg.backends.features.dino.build_dinov2` + weights) for one input size.
 
     ``height`` and ``width`` must be multiples of 14 (use
-    :func:`graphseg.backends.dino.patch_grid` for your images).
+    :func:`graphseg.backends.features.dino.patch_grid` for your images).
     """
     import torch
 
@@ -155,11 +155,11 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     paths: tuple[Path, ...]
     if args.model == "sam2":
-        from .sam import load_sam2
+        from .segmenters.sam import load_sam2
 
         paths = export_sam2_onnx(load_sam2(args.checkpoint, args.config, image_size=args.image_size), args.out)
     else:
-        from .dino import DINOv2Features
+        from .features.dino import DINOv2Features
 
         fx = DINOv2Features(checkpoint=args.checkpoint, arch=args.arch)
         paths = (export_dinov2_onnx(fx.model, args.out, args.height, args.width),)

@@ -143,7 +143,7 @@ def backend_options(cls: type, options: BaseModel | Mapping[str, Any] | None, kw
 
     Examples
     --------
-    >>> from graphseg.backends.matchers import ReprojectionMatcher
+    >>> from graphseg.backends.matchers.reprojection import ReprojectionMatcher
     >>> backend_options(ReprojectionMatcher, {"stride": 2}, {}).stride
     2
     >>> backend_options(ReprojectionMatcher, ReprojectionMatcher.Options(), {"seed": 1})
@@ -177,7 +177,7 @@ def option_fields(cls: Any) -> frozenset[str]:
 
     Examples
     --------
-    >>> from graphseg.backends.matchers import ReprojectionMatcher
+    >>> from graphseg.backends.matchers.reprojection import ReprojectionMatcher
     >>> sorted(option_fields(ReprojectionMatcher) & {"seed", "num_matches"})
     ['num_matches', 'seed']
     >>> option_fields(object)

@@ -5,7 +5,7 @@ import the graph package.
 
 Examples
 --------
->>> from graphseg.backends.segmenters import SuperpixelSegmenter
+>>> from graphseg.backends.segmenters.superpixel import SuperpixelSegmenter
 >>> isinstance(SuperpixelSegmenter(), Segmenter)
 True
 """

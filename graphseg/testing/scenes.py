@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.matchers import ReprojectionMatcher
-from ..backends.parts import split_mask
+from ..backends.matchers.reprojection import ReprojectionMatcher
+from ..backends.segmenters.oracle_parts import split_mask
 from ..scene import Matches, Scene, View
 from ..sim.boxes import Box, intrinsics, look_at, render_boxes
 

@@ -216,7 +216,7 @@ def batched_nms(boxes: Tensor, scores: Tensor, idxs: Tensor, iou_threshold: floa
 def _module(name: str, **attrs: Any) -> types.ModuleType:
     mod = types.ModuleType(name)
     mod.__spec__ = importlib.machinery.ModuleSpec(name, None)
-    mod.__file__ = None  # not a real torchvision (graphseg.backends.romatch_compat checks __file__)
+    mod.__file__ = None  # not a real torchvision (graphseg.backends.matchers.romatch_compat checks __file__)
     for k, v in attrs.items():
         setattr(mod, k, v)
     return mod

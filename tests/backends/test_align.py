@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphseg.backends.align import (
+from graphseg.backends.lifters.align import (
     NOMINAL_WORKING_DISTANCE,
     PairPointMaps,
     apply_similarity,
@@ -134,7 +134,7 @@ def test_metric_scale_known_poses_and_nominal():
 @pytest.mark.parametrize("known", [True, False])
 def test_aligned_and_scaled_point_maps_segment_like_ground_truth(known):
     """Synthetic DUSt3R-like pairs (1% noise, random scales) -> alignment -> metric scale -> GraphSeg finds both boxes."""
-    from graphseg.backends.align import lift_from_alignment
+    from graphseg.backends.lifters.align import lift_from_alignment
     from graphseg.config import Config
     from graphseg.method.segment import segment
     from graphseg.metrics import evaluate

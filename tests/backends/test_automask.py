@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.automask import (
+from graphseg.backends.segmenters.automask import (
     box_iou,
     box_nms,
     crop_boxes,

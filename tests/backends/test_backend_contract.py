@@ -15,26 +15,25 @@ import pytest
 from pydantic import BaseModel
 
 from graphseg.backends import registry
-from graphseg.backends.convexity import ConvexitySegmenter, concave_creases, split_concave
-from graphseg.backends.features import ColorFeatures
-from graphseg.backends.matchers import (
-    FlowMatcher,
-    ReprojectionMatcher,
-    SiftMatcher,
-    flow_matches,
-    reprojection_matches,
-    sift_matches,
-)
+from graphseg.backends.features.color import ColorFeatures
+from graphseg.backends.lifters.sfm import SfmLifter, run_sfm
+from graphseg.backends.matchers.flow import FlowMatcher, flow_matches
+from graphseg.backends.matchers.precomputed import PrecomputedMatcher
+from graphseg.backends.matchers.reprojection import ReprojectionMatcher, reprojection_matches
+from graphseg.backends.matchers.sift import SiftMatcher, sift_matches
 from graphseg.backends.options import Backend, backend_options, option_fields
-from graphseg.backends.precomputed import PrecomputedMatcher
-from graphseg.backends.segmenters import (
+from graphseg.backends.segmenters.convexity import (
+    ConvexitySegmenter,
+    concave_creases,
+    split_concave,
+)
+from graphseg.backends.segmenters.geometric import (
     GeometricOptions,
     GeometricSegmenter,
-    OraclePartsSegmenter,
-    SuperpixelSegmenter,
     geometric_segments,
 )
-from graphseg.backends.sfm import SfmLifter, run_sfm
+from graphseg.backends.segmenters.oracle_parts import OraclePartsSegmenter
+from graphseg.backends.segmenters.superpixel import SuperpixelSegmenter
 from graphseg.config import Config
 from graphseg.pipeline import resolve_backend
 from graphseg.scene import SceneError

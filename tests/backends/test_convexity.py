@@ -1,8 +1,12 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.convexity import ConvexitySegmenter, concave_creases, split_concave
 from graphseg.backends.registry import segmenters
+from graphseg.backends.segmenters.convexity import (
+    ConvexitySegmenter,
+    concave_creases,
+    split_concave,
+)
 from graphseg.scene import SceneError, View
 
 CREASE = {"threshold": 0.2, "normal_step": 4, "reach": 3}  # ConvexitySegmenter.Options' defaults
@@ -60,7 +64,7 @@ def test_unknown_option_is_reported_when_built():
 
 def test_min_area_is_split_concaves_and_the_geometric_segments_keep_their_own():
     """As before the Options: ``min_area`` (200) goes to split_concave, geometric_segments runs with its own 60."""
-    from graphseg.backends.segmenters import GeometricOptions
+    from graphseg.backends.segmenters.geometric import GeometricOptions
 
     o = ConvexitySegmenter.Options()
     assert (o.threshold, o.normal_step, o.reach, o.min_area, o.seed) == (0.2, 4, 3, 200, 0)

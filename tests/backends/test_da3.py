@@ -12,7 +12,7 @@ torch = pytest.importorskip("torch")
 pytest.importorskip("depth_anything_3")
 pytest.importorskip("addict")
 
-from graphseg.backends.da3 import DA3Lifter, load_da3  # noqa: E402
+from graphseg.backends.lifters.da3 import DA3Lifter, load_da3  # noqa: E402
 from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.testing.scenes import TWO_BOXES, box_scene  # noqa: E402
 

@@ -7,7 +7,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from graphseg.backends.dense_matchers import sample_by_certainty
+from graphseg.backends.matchers.sampling import sample_by_certainty
 from graphseg.backends.registry import matchers
 from graphseg.registry import MissingDependencyError
 from graphseg.scene import Matches, SceneError, View
@@ -133,7 +133,7 @@ def romatch():
     pytest.importorskip("kornia")
     pytest.importorskip("einops")
     pytest.importorskip("loguru")
-    from graphseg.backends.romatch_compat import import_romatch
+    from graphseg.backends.matchers.romatch_compat import import_romatch
 
     try:
         return import_romatch()

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.densify import color_regions, fill_depth_by_regions
+from graphseg.backends.lifters.densify import color_regions, fill_depth_by_regions
 
 
 def test_plane_in_inverse_depth_is_recovered():

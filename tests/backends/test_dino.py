@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.dino import dinov2_arch, patch_grid
+from graphseg.backends.features.dino import dinov2_arch, patch_grid
 from graphseg.backends.registry import features
 from graphseg.scene import SceneError, View
 
@@ -28,8 +28,8 @@ torch = pytest.importorskip("torch")
 def vits14(tmp_path_factory):
     pytest.importorskip("kornia")
     pytest.importorskip("einops")
-    from graphseg.backends.dino import build_dinov2
-    from graphseg.backends.romatch_compat import import_romatch
+    from graphseg.backends.features.dino import build_dinov2
+    from graphseg.backends.matchers.romatch_compat import import_romatch
     from graphseg.registry import MissingDependencyError
 
     try:

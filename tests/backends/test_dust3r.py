@@ -17,7 +17,7 @@ torch = pytest.importorskip("torch")
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 
-from graphseg.backends.dust3r import DUSt3RLifter, model_size  # noqa: E402
+from graphseg.backends.lifters.dust3r import DUSt3RLifter, model_size  # noqa: E402
 from graphseg.cli import main  # noqa: E402
 from graphseg.io.images import write_rgb  # noqa: E402
 from graphseg.scene import Scene, SceneError, View  # noqa: E402

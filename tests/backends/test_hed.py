@@ -5,8 +5,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from graphseg.backends.hed import HEDEdges, build_hed, bundled_weights, hed_edges, load_hed_weights
-from graphseg.backends.segmenters import GeometricSegmenter, geometric_segments
+from graphseg.backends.segmenters.geometric import GeometricSegmenter, geometric_segments
+from graphseg.backends.segmenters.hed import (
+    HEDEdges,
+    build_hed,
+    bundled_weights,
+    hed_edges,
+    load_hed_weights,
+)
 from graphseg.scene import SceneError, View
 
 torch = pytest.importorskip("torch")
@@ -99,7 +105,7 @@ def test_edge_ridge_splits_a_flat_region():
     pts[..., 0], pts[..., 1], pts[..., 2] = (xs - 10) * 0.002, (ys - 10) * 0.002, 0.5
     edges = np.zeros((20, 20), np.float32)
     edges[:, 9:12] = 0.9
-    from graphseg.backends.segmenters import GeometricOptions
+    from graphseg.backends.segmenters.geometric import GeometricOptions
     from graphseg.config import BackgroundConfig
 
     background = BackgroundConfig(plane=False, max_distance=None)

@@ -1,13 +1,10 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.matchers import (
-    FlowMatcher,
-    ReprojectionMatcher,
-    SiftMatcher,
-    reprojection_matches,
-    subsample_matches,
-)
+from graphseg.backends.matchers.flow import FlowMatcher
+from graphseg.backends.matchers.reprojection import ReprojectionMatcher, reprojection_matches
+from graphseg.backends.matchers.sampling import subsample_matches
+from graphseg.backends.matchers.sift import SiftMatcher
 from graphseg.backends.registry import matchers
 from graphseg.scene import Matches, SceneError
 from graphseg.testing.scenes import TWO_BOXES, box_scene

@@ -72,8 +72,8 @@ def dino(tmp_path_factory):
     """(graphseg's extractor from a checkpoint file, the reference model with the same weights)."""
     pytest.importorskip("einops")
     kd = pytest.importorskip("kornia.feature.dedode.transformer.dinov2")
+    from graphseg.backends.matchers.romatch_compat import import_romatch
     from graphseg.backends.registry import features
-    from graphseg.backends.romatch_compat import import_romatch
     from graphseg.registry import MissingDependencyError
 
     try:
@@ -226,7 +226,7 @@ def da3(tmp_path_factory):
     pytest.importorskip("depth_anything_3")
     for mod in ("addict", "einops", "omegaconf", "PIL"):
         pytest.importorskip(mod)
-    from graphseg.backends.da3 import DA3Lifter
+    from graphseg.backends.lifters.da3 import DA3Lifter
 
     api = _reference_da3_api()
     torch.manual_seed(0)
@@ -337,7 +337,7 @@ def test_da3_marker_comes_back_at_its_pixel(da3, monkeypatch, shape, size):
         img[y0, x0] = (255, 40, 40)
         rgbs.append(img)
     out = lifter(Scene([View(f"{k}", r) for k, r in enumerate(rgbs)]))
-    from graphseg.backends.da3 import model_size_14
+    from graphseg.backends.lifters.da3 import model_size_14
 
     hw = model_size_14(shape, size)
     for k, (v, (y0, x0)) in enumerate(zip(out.views, markers)):

@@ -30,7 +30,7 @@ pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 pytest.importorskip("PIL")
 
-from graphseg.backends.dust3r import DUSt3RLifter, input_geometry, preprocess  # noqa: E402
+from graphseg.backends.lifters.dust3r import DUSt3RLifter, input_geometry, preprocess  # noqa: E402
 from graphseg.io.images import read_rgb, write_rgb  # noqa: E402
 from graphseg.scene import Scene, View  # noqa: E402
 from tests.backends._dust3r_reference import (  # noqa: E402

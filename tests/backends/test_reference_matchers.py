@@ -14,7 +14,7 @@ in the reference package:
   preprocessing, and romatch's ``sample``. romatch's ``to_pixel_coordinates``
   puts pixel centres at ``+0.5``; graphseg's matches are those minus 0.5.
 
-Without torchvision (see ``graphseg/backends/romatch_compat.py``) romatch's PIL
+Without torchvision (see ``graphseg/backends/matchers/romatch_compat.py``) romatch's PIL
 path needs torchvision's ``Resize`` / ``Normalize`` / ``ToTensor``: the
 ``tv_transforms`` fixture supplies them with torchvision's documented behaviour
 for PIL images (``PIL.Image.resize`` with the given filter, ``(x - mean) / std``,
@@ -207,7 +207,7 @@ def romatch():
     pytest.importorskip("einops")
     pytest.importorskip("loguru")
     pytest.importorskip("PIL")
-    from graphseg.backends.romatch_compat import import_romatch
+    from graphseg.backends.matchers.romatch_compat import import_romatch
     from graphseg.registry import MissingDependencyError
 
     try:
@@ -389,7 +389,7 @@ def test_sampling_equals_romatch_sample(roma_tiny, monkeypatch):
     inclusion frequencies otherwise (RoMa's default ``threshold_balanced`` adds a
     kernel-density step graphseg leaves out).
     """
-    from graphseg.backends.dense_matchers import sample_by_certainty
+    from graphseg.backends.matchers.sampling import sample_by_certainty
     from graphseg.scene import Matches
 
     ref, _ = roma_tiny

@@ -1,7 +1,7 @@
 """The ``sam2`` backend against SAM 2's own reference code, on the same random weights.
 
 graphseg drives SAM 2's image encoder, prompt encoder and mask decoder itself
-(:func:`graphseg.backends.sam.sam2_predictor`, :func:`graphseg.backends.automask.generate_masks`);
+(:func:`graphseg.backends.segmenters.sam.sam2_predictor`, :func:`graphseg.backends.segmenters.automask.generate_masks`);
 here they are checked against ``sam2``'s ``SAM2ImagePredictor`` and
 ``SAM2AutomaticMaskGenerator``. Those import torchvision, which cannot be
 installed beside the tests' CPU torch: the ``reference`` fixture imports them
@@ -148,7 +148,7 @@ def test_standin_leaves_nothing_behind():
 # ----------------------------------------------------------------------------- predictor
 def test_predictor_matches_sam2_image_predictor(weights, reference):
     """Low-resolution logits and predicted IoUs, one prompt at a time and batched, foreground and background."""
-    from graphseg.backends.sam import sam2_predictor
+    from graphseg.backends.segmenters.sam import sam2_predictor
 
     model, seg = weights
     rng = np.random.default_rng(0)
@@ -194,7 +194,7 @@ def _same_proposals(props, anns):
 
 
 def test_automatic_mask_generator_matches_sam2(weights, reference, monkeypatch):
-    import graphseg.backends.sam as sam
+    import graphseg.backends.segmenters.sam as sam
 
     model, seg = weights
     rgb = _blocks_image()
@@ -321,7 +321,7 @@ def test_pixel_conventions_predictor(weights, reference):
     """A prompt at image pixel (x, y) comes back as a disc at (x, y) on a non-square image; the image marker is in place."""
     import torch.nn.functional as F
 
-    from graphseg.backends.sam import sam2_predictor
+    from graphseg.backends.segmenters.sam import sam2_predictor
 
     model, seg = weights
     rgb = _marker_image()
@@ -349,8 +349,8 @@ def test_pixel_conventions_predictor(weights, reference):
 
 def test_pixel_conventions_automatic_masks(weights, reference):
     """Grid prompts, full image and crops: each mask is a disc at its prompt; same masks as the reference."""
-    from graphseg.backends.automask import generate_masks, point_grid
-    from graphseg.backends.sam import _crop_predictor, sam2_predictor
+    from graphseg.backends.segmenters.automask import generate_masks, point_grid
+    from graphseg.backends.segmenters.sam import _crop_predictor, sam2_predictor
 
     model, seg = weights
     rgb = _marker_image()

@@ -44,7 +44,7 @@ def image():
 
 
 def test_registered():
-    from graphseg.backends.sam import SAM2Segmenter, SamOnnxSegmenter
+    from graphseg.backends.segmenters.sam import SAM2Segmenter, SamOnnxSegmenter
 
     assert segmenters.get("sam2") is SAM2Segmenter
     assert segmenters.get("sam-onnx") is SamOnnxSegmenter
@@ -62,7 +62,7 @@ def test_sam2_segmenter_loads_checkpoint_and_segments(tiny_sam2, sam2_seg, image
 
 
 def test_sam2_predictor_matches_model_decoder(tiny_sam2, image):
-    from graphseg.backends.sam import sam2_predictor
+    from graphseg.backends.segmenters.sam import sam2_predictor
 
     model, _ = tiny_sam2
     predict = sam2_predictor(model, image)

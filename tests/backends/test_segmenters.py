@@ -1,16 +1,16 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.lifters import NO_DEPTH_MESSAGE, RGBDLifter
+from graphseg.backends.lifters.rgbd import NO_DEPTH_MESSAGE, RGBDLifter
 from graphseg.backends.registry import features, lifters, segmenters
-from graphseg.backends.segmenters import (
-    GeometricSegmenter,
-    OraclePartsSegmenter,
+from graphseg.backends.segmenters.geometric import GeometricSegmenter
+from graphseg.backends.segmenters.oracle_parts import OraclePartsSegmenter
+from graphseg.backends.segmenters.precomputed import (
     PrecomputedSegmenter,
-    SuperpixelSegmenter,
     load_precomputed,
     save_precomputed,
 )
+from graphseg.backends.segmenters.superpixel import SuperpixelSegmenter
 from graphseg.scene import Scene, SceneError, View
 from graphseg.sim.boxes import Box
 from graphseg.testing.scenes import box_scene

@@ -6,8 +6,8 @@ import pytest
 pytest.importorskip("pycolmap")
 pytest.importorskip("pybullet")
 
-from graphseg.backends.align import umeyama  # noqa: E402
-from graphseg.backends.sfm import NOMINAL_DISTANCE, SfmLifter, run_sfm  # noqa: E402
+from graphseg.backends.lifters.align import umeyama  # noqa: E402
+from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, run_sfm  # noqa: E402
 from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
@@ -70,7 +70,7 @@ class _FakeModel:
 )
 def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled, plain, expected, calls):
     """The pooled model is kept unless plain SIFT registers more views; plain SIFT runs only then."""
-    from graphseg.backends import sfm
+    from graphseg.backends.lifters import sfm
 
     models = {True: None if pooled is None else _FakeModel(pooled), False: _FakeModel(plain)}
     seen = []

@@ -1,7 +1,12 @@
 import numpy as np
 import pytest
 
-from graphseg.backends.stereo import fuse_depths, pair_points, select_neighbours, sparse_point_maps
+from graphseg.backends.lifters.stereo import (
+    fuse_depths,
+    pair_points,
+    select_neighbours,
+    sparse_point_maps,
+)
 
 
 def test_fuse_depths_shapes_and_hand_computed():
@@ -102,7 +107,7 @@ def _two_views_of_a_wall():
 def test_view_consistency_finds_points_bled_off_their_depth():
     """A stereo window bleeds an object's depth onto the table next to it: those points lie off the
     surface that the other view sees there, so no neighbour confirms them."""
-    from graphseg.backends.stereo import view_consistency
+    from graphseg.backends.lifters.stereo import view_consistency
 
     K, poses, walls = _two_views_of_a_wall()
     bled = walls[0].copy()
@@ -118,7 +123,7 @@ def test_view_consistency_finds_points_bled_off_their_depth():
 
 
 def test_view_consistency_colour_test():
-    from graphseg.backends.stereo import view_consistency
+    from graphseg.backends.lifters.stereo import view_consistency
 
     K, poses, walls = _two_views_of_a_wall()
     grey = np.full((24, 32, 3), 120, np.uint8)

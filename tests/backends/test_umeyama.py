@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from graphseg.backends.align import umeyama
+from graphseg.backends.lifters.align import umeyama
 
 
 def test_shapes():

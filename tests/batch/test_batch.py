@@ -11,7 +11,7 @@ from graphseg.scene import SceneError
 KILLER = '''
 import os, signal
 from pathlib import Path
-from graphseg.backends.segmenters import GeometricSegmenter
+from graphseg.backends.segmenters.geometric import GeometricSegmenter
 
 MARK = Path(__file__).with_name("killed-once")
 

@@ -23,7 +23,7 @@ def test_ycbv_two_views_of_one_object_overlap(ycbv_root):
     s = read_ycbv(ycbv_root / "0001", views=[0, 19])
     assert [v.name for v in s.views] == ["000001", "000020"]
     assert s.objects[1] == "002_master_chef_can"
-    from graphseg.backends.lifters import RGBDLifter
+    from graphseg.backends.lifters.rgbd import RGBDLifter
 
     s = RGBDLifter()(s)
     for obj in (1, 2):
@@ -81,7 +81,7 @@ def test_graspnet_fixture(tmp_path):
     # with the table frame given, poses come out in the world (here: the renderer's) frame
     np.save(scene_dir / "realsense" / "cam0_wrt_table.npy", T0)
     s = read_graspnet(scene_dir, num_views=2)
-    from graphseg.backends.lifters import RGBDLifter
+    from graphseg.backends.lifters.rgbd import RGBDLifter
 
     s = RGBDLifter()(s)
     for v in s.views:

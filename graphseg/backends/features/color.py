@@ -1,7 +1,7 @@
-"""Feature extractors for the ``dino`` edge adder.
+"""The ``color`` feature extractor for the ``dino`` edge adder: a weight-free stand-in.
 
-``color``: a weight-free stand-in: per-pixel CIE Lab colour, blurred, at a
-reduced resolution. Real DINO features come from a model adapter.
+Per-pixel CIE Lab colour, blurred, at a reduced resolution. Real DINO
+features come from the ``dinov2`` model adapter (:mod:`graphseg.backends.features.dino`).
 
 Examples
 --------
@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from ..scene import View
-from .options import Backend
+from ...scene import View
+from ..options import Backend
 
 __all__ = ["ColorFeatures"]
 

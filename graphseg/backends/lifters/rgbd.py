@@ -1,7 +1,6 @@
-"""Lifters: give every pixel a world point.
+"""The ``rgbd`` lifter: metric depth + intrinsics + poses -> world point maps.
 
-``rgbd``: metric depth + intrinsics + poses -> world point maps, confidence 1
-where depth is valid and 0 elsewhere. A scene without depth needs a learned
+Confidence is 1 where depth is valid and 0 elsewhere. A scene without depth needs a learned
 lifter with the user's weights (``sfm``, ``dust3r``, ``da3``; see docs/models.md)
 or point maps computed elsewhere (``--points DIR``, docs/formats.md).
 
@@ -18,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import Scene, SceneError, backproject
-from .options import Backend
+from ...scene import Scene, SceneError, backproject
+from ..options import Backend
 
 __all__ = ["RGBDLifter", "NO_DEPTH_MESSAGE"]
 

@@ -1,0 +1,50 @@
+"""Image helpers shared by the backends of every kind: a view's uint8 RGB, grey, ImageNet normalisation.
+
+The model adapters (``sam2``, ``loftr``, ``roma``, ``dinov2``, ``da3``) read a
+view's colour image with :func:`view_rgb` and normalise it with
+:data:`IMAGENET_MEAN` / :data:`IMAGENET_STD`; the classical ``flow`` and
+``sift`` matchers work on :func:`gray`.
+
+Examples
+--------
+>>> import numpy as np
+>>> from graphseg.scene import View
+>>> rgb = view_rgb(View("a", np.full((2, 3, 3), 0.5, np.float32)))
+>>> rgb.dtype.name, int(rgb[0, 0, 0])
+('uint8', 127)
+>>> gray(np.zeros((2, 3, 3), np.uint8)).shape
+(2, 3)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene import SceneError, View
+
+__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "view_rgb", "gray"]
+
+#: Per-channel RGB mean and standard deviation (0..1 scale) of ImageNet, as the models were trained.
+IMAGENET_MEAN = (0.485, 0.456, 0.406)
+IMAGENET_STD = (0.229, 0.224, 0.225)
+
+
+def view_rgb(view: View) -> np.ndarray:
+    """The view's image as uint8 ``[H, W, 3]`` (float images in 0..1 are scaled by 255).
+
+    Raises :class:`~graphseg.scene.SceneError` naming the view when the image is
+    not ``[H, W, 3]``. O(H W).
+    """
+    rgb = np.asarray(view.rgb)
+    if rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise SceneError(f"expected rgb of shape [H, W, 3] (got {list(rgb.shape)})", where=view.name, field="rgb")
+    if rgb.dtype != np.uint8:
+        rgb = np.clip(rgb * (255.0 if rgb.max() <= 1.0 else 1.0), 0, 255).astype(np.uint8)
+    return rgb
+
+
+def gray(rgb: np.ndarray) -> np.ndarray:
+    """uint8 RGB ``[H, W, 3]`` -> uint8 grey ``[H, W]`` (OpenCV's ``COLOR_RGB2GRAY`` weights). O(H W)."""
+    import cv2
+
+    return cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)

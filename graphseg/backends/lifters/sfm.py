@@ -1,0 +1,602 @@
+"""The ``sfm`` lifter: cameras and 3D points from plain RGB images, with no weights.
+
+Structure from motion with COLMAP (extra ``sfm`` = ``pycolmap``, CPU):
+SIFT features with a low ``peak_threshold`` (renders and low-texture tabletop
+images give too few keypoints with COLMAP's default), exhaustive matching and
+incremental mapping with a low minimum triangulation angle (narrow wrist-camera
+sweeps and 3 - 20 views). Known intrinsics are used, and held fixed, when
+every view has ``K``. Everything runs in a temporary folder.
+
+Per-view depth then comes from :mod:`graphseg.backends.lifters.stereo`: dense
+semi-global matching on pairs rectified with the SfM poses wherever a
+neighbour view is close enough, and the triangulated SfM points elsewhere.
+
+Scale
+-----
+SfM recovers the scene only up to a similarity. When every view has a pose,
+the SfM camera centres are aligned to them (:func:`graphseg.backends.lifters.align.umeyama`)
+and the result is metric. Otherwise the reconstruction is scaled so that the
+median camera-to-point distance equals :data:`NOMINAL_DISTANCE` (0.6 m, a
+tabletop / wrist-camera working distance), so the metre thresholds of the
+config apply at about the right size. ``scene.meta["scale"]`` records
+``{"metric": bool, "factor": float, "method": str}``.
+
+Examples
+--------
+>>> SfmLifter().name, NOMINAL_DISTANCE
+('sfm', 0.6)
+"""
+
+from __future__ import annotations
+
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from ...registry import require
+from ...scene import Scene, SceneError
+from ..options import Backend
+from .align import NOMINAL_WORKING_DISTANCE, umeyama
+
+__all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "CAMERA_MODELS", "not_registered_message"]
+
+#: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
+CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
+
+#: Median camera-to-point distance (m) a reconstruction of unknown scale is scaled to.
+NOMINAL_DISTANCE = NOMINAL_WORKING_DISTANCE  # the one documented normalisation of every lifter (align.py)
+
+
+@dataclass
+class SfmReconstruction:
+    """What :func:`run_sfm` recovered, in graphseg conventions (OpenCV axes, pixel centres at integers).
+
+    Attributes
+    ----------
+    registered : bool ``[N]``
+    K : list of float64 ``[3, 3]`` (None where not registered)
+    dist : list of float64 ``[k]`` OpenCV distortion coefficients (None where not registered)
+    cam_to_world : list of float64 ``[4, 4]`` (None where not registered)
+    points : float64 ``[P, 3]`` triangulated points
+    observations : list of (float64 ``[M, 2]`` pixel xy, int64 ``[M]`` index into ``points``) per view
+    reprojection_error : float
+        Mean reprojection error in pixels.
+    """
+
+    registered: np.ndarray
+    K: list[np.ndarray | None]
+    dist: list[np.ndarray | None]
+    cam_to_world: list[np.ndarray | None]
+    points: np.ndarray
+    observations: list[tuple[np.ndarray, np.ndarray]]
+    reprojection_error: float = float("nan")
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def num_registered(self) -> int:
+        return int(np.count_nonzero(self.registered))
+
+    def select(self, indices: Any) -> SfmReconstruction:
+        """The reconstruction of the views ``indices`` only (same points; a new object)."""
+        idx = [int(i) for i in indices]
+        return SfmReconstruction(
+            self.registered[idx].copy(),
+            [self.K[i] for i in idx],
+            [self.dist[i] for i in idx],
+            [self.cam_to_world[i] for i in idx],
+            self.points,
+            [self.observations[i] for i in idx],
+            self.reprojection_error,
+            dict(self.info),
+        )
+
+    def transformed(self, s: float, R: np.ndarray, t: np.ndarray) -> SfmReconstruction:
+        """The reconstruction moved by the similarity ``x -> s R x + t`` (a new object)."""
+        R = np.asarray(R, np.float64)
+        poses: list[np.ndarray | None] = []
+        for T in self.cam_to_world:
+            if T is None:
+                poses.append(None)
+                continue
+            U = np.eye(4)
+            U[:3, :3] = R @ T[:3, :3]
+            U[:3, 3] = s * R @ T[:3, 3] + t
+            poses.append(U)
+        pts = s * self.points @ R.T + t if len(self.points) else self.points
+        return SfmReconstruction(self.registered.copy(), list(self.K), list(self.dist), poses, pts, list(self.observations), self.reprojection_error, dict(self.info))
+
+
+def not_registered_message(registered: int, total: int) -> str:
+    """The one-line advice when SfM registers too few views.
+
+    Examples
+    --------
+    >>> "registered 1 of 4 views; " in not_registered_message(1, 4)
+    True
+    """
+    return (
+        f"structure from motion registered {registered} of {total} views; every view must share texture with "
+        "a neighbour: take more views with more overlap (about 10-20 degrees apart), or provide depth with "
+        "intrinsics and poses (lifter rgbd)"
+    )
+
+
+def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, seed: int, known_K: bool, pooling: bool = False) -> tuple[Any, Any, Any]:
+    """COLMAP's options: single-threaded (reproducible), guided matching and low inlier minimums.
+
+    Guided matching (matches re-searched along the epipolar lines of the
+    first two-view geometry) with the minimums lowered (10 matches, 25 inliers
+    for the initial pair, 10 for a new view) registered every view of the five
+    tuning-half scenes of ``bench_rgb_only.py`` where COLMAP's settings here
+    registered 0-7 of 3-10 (repeated stripes, checker and photo textures,
+    10-view rings; ``docs/results.md``). ``pooling`` turns on SIFT's
+    domain-size pooling (descriptors pooled over several patch sizes).
+    """
+    ext = pycolmap.FeatureExtractionOptions()
+    ext.sift.peak_threshold = peak_threshold
+    ext.sift.max_num_features = 8192
+    ext.sift.domain_size_pooling = pooling
+    ext.num_threads = 1  # with several threads the image ids, and so the results, change from run to run
+    ext.use_gpu = False
+    match = pycolmap.FeatureMatchingOptions()
+    match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
+    match.use_gpu = False
+    match.guided_matching = True
+    inc = pycolmap.IncrementalPipelineOptions()
+    inc.num_threads = 1  # multi-threaded bundle adjustment changes the result from run to run
+    inc.random_seed = seed
+    inc.min_model_size = 2
+    inc.multiple_models = False
+    inc.extract_colors = False
+    inc.min_num_matches = 10
+    inc.mapper.init_min_tri_angle = min_tri_angle
+    inc.mapper.init_min_num_inliers = 25
+    inc.mapper.abs_pose_min_num_inliers = 10
+    inc.mapper.abs_pose_min_inlier_ratio = 0.15
+    inc.mapper.filter_min_tri_angle = min_tri_angle / 4
+    inc.mapper.ba_local_min_tri_angle = min_tri_angle / 4
+    inc.triangulation.min_angle = min_tri_angle / 4
+    if known_K:
+        inc.ba_refine_focal_length = False
+        inc.ba_refine_principal_point = False
+        inc.ba_refine_extra_params = False
+    return ext, match, inc
+
+
+def run_sfm(
+    images: list[np.ndarray],
+    K: list[np.ndarray] | None = None,
+    *,
+    peak_threshold: float,
+    min_tri_angle: float,
+    seed: int,
+    attempts: int = 3,
+    camera_model: str,
+) -> SfmReconstruction:
+    """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
+
+    ``peak_threshold``, ``min_tri_angle``, ``seed`` and ``camera_model`` are
+    required; their defaults are those of :class:`SfmLifter.Options`
+    (``run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())``).
+
+    Parameters
+    ----------
+    images : list of uint8 ``[H, W, 3]``
+    K : list of ``[3, 3]``, optional
+        Known intrinsics (graphseg convention: pixel centres at integers),
+        held fixed. Without them one shared camera of ``camera_model`` is
+        estimated, starting from COLMAP's focal-length guess (1.2 x the larger side).
+    peak_threshold : float
+        SIFT detector threshold (COLMAP's default 0.0067 finds too few
+        keypoints on renders).
+    min_tri_angle : float
+        Degrees; the initial pair needs this triangulation angle, and new points
+        a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
+        sweep at 1.2 m).
+    seed : int
+        Seeds COLMAP's random number generator; every stage runs on one
+        thread, so the same images give the same reconstruction.
+    attempts : int
+        Incremental mapping is randomised: when a view
+        stays unregistered it is rerun from the same matches with the next
+        seed, up to this many times; the model with the most views is kept.
+    camera_model : str
+        COLMAP camera model estimated when ``K`` is not given (one camera shared
+        by all views). ``"SIMPLE_PINHOLE"`` (default: one focal length, principal
+        point at the image centre, no distortion): a few views of a tabletop
+        constrain a radial distortion term poorly, and ``"SIMPLE_RADIAL"``
+        (COLMAP's default) let it absorb wrong matches on the tuning half of
+        ``bench_rgb_only.py`` (focal lengths off by up to 2.2x and k1 up to 0.94;
+        ``docs/results.md``, round 6). Use ``"SIMPLE_RADIAL"``, ``"RADIAL"`` or
+        ``"OPENCV"`` for photos with visible lens distortion.
+
+    Returns
+    -------
+    SfmReconstruction
+        The largest model; views it does not contain are marked unregistered.
+
+    Notes
+    -----
+    SIFT with domain-size pooling first; when that leaves views unregistered,
+    plain SIFT as well, and the model with more views is kept (pooled
+    descriptors tell the squares of a checkered table apart; plain ones
+    register more on weakly textured views). Exhaustive matching: O(N^2)
+    image pairs. 5-30 s for 8 renders of 640 x 480 on one CPU core (every
+    stage runs single-threaded for reproducibility; ``bench_rgb_only.py``).
+    """
+    pycolmap = require("pycolmap", "sfm")
+    import cv2
+
+    level = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
+    try:
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model)
+    finally:
+        pycolmap.logging.minloglevel = level
+
+
+def _run_sfm(
+    pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str
+) -> SfmReconstruction:
+    n = len(images)
+    known = K is not None and all(k is not None for k in K)
+    names = [f"{i:04d}.png" for i in range(n)]
+    with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
+        root = Path(tmp)
+        (root / "images").mkdir()
+        for name, img in zip(names, images):
+            cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+        # Domain-size pooling first: its descriptors tell the squares of a checkered
+        # table apart where plain SIFT's match the wrong square and give a wrong model
+        # (docs/results.md, round 5). On weakly textured views it finds fewer matches
+        # and can leave views unregistered; then plain SIFT runs too and the model
+        # with more registered views is kept (ties keep the pooled one).
+        best = None
+        for pooling in (True, False):
+            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling)
+            if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
+                best = rec
+            if best is not None and best.num_reg_images() == n:
+                break
+        if best is None:
+            return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
+        return _convert(best, names)
+
+
+def _map(
+    pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None, known: bool, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str, pooling: bool
+) -> Any:
+    """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
+    n = len(names)
+    if hasattr(pycolmap, "set_random_seed"):
+        pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
+    ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
+    tag = "dsp" if pooling else "sift"
+    reader = pycolmap.ImageReaderOptions()
+    mode = pycolmap.CameraMode.SINGLE
+    Ks: list[np.ndarray] = []
+    if known:
+        assert K is not None
+        Ks = [np.asarray(k, np.float64) for k in K]
+        same = all(np.allclose(k, Ks[0]) for k in Ks)
+        mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
+        k0 = Ks[0]
+        reader.camera_model = "PINHOLE"
+        reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
+    else:
+        reader.camera_model = camera_model
+    db = root / f"database-{tag}.db"
+    pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
+    if known and mode == pycolmap.CameraMode.PER_IMAGE:
+        _set_per_image_cameras(pycolmap, db, names, Ks)
+    pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
+    best = None
+    for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
+        out = root / f"sparse-{tag}{attempt}"
+        out.mkdir()
+        inc.random_seed = seed + attempt
+        models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
+        if models:
+            rec = max(models.values(), key=lambda r: r.num_reg_images())
+            if best is None or rec.num_reg_images() > best.num_reg_images():
+                best = rec
+        if best is not None and best.num_reg_images() == n:
+            break
+    return best
+
+
+def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
+    """Give every image its own known PINHOLE camera (views with different K)."""
+    with pycolmap.Database.open(db_path) as db:
+        for img in db.read_all_images():
+            k = Ks[names.index(img.name)]
+            cam = db.read_camera(img.camera_id)
+            cam.params = [k[0, 0], k[1, 1], k[0, 2] + 0.5, k[1, 2] + 0.5]
+            cam.has_prior_focal_length = True
+            db.update_camera(cam)
+
+
+def _convert(rec: Any, names: list[str]) -> SfmReconstruction:
+    n = len(names)
+    registered = np.zeros(n, bool)
+    Ks: list[np.ndarray | None] = [None] * n
+    dists: list[np.ndarray | None] = [None] * n
+    poses: list[np.ndarray | None] = [None] * n
+    obs: list[tuple[np.ndarray, np.ndarray]] = [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n
+    ids = sorted(rec.points3D.keys())
+    index = {pid: k for k, pid in enumerate(ids)}
+    pts = np.array([rec.points3D[pid].xyz for pid in ids], np.float64).reshape(-1, 3)
+    for image in rec.images.values():
+        if not image.has_pose or image.name not in names:
+            continue
+        i = names.index(image.name)
+        registered[i] = True
+        cam = rec.cameras[image.camera_id]
+        K = np.asarray(cam.calibration_matrix(), np.float64).copy()
+        K[0, 2] -= 0.5  # COLMAP puts pixel centres at +0.5
+        K[1, 2] -= 0.5
+        Ks[i] = K
+        d = np.zeros(5)
+        if cam.model.name in ("SIMPLE_RADIAL", "RADIAL"):
+            d[0] = cam.params[3]
+            if cam.model.name == "RADIAL":
+                d[1] = cam.params[4]
+        elif cam.model.name == "OPENCV":  # fx, fy, cx, cy, k1, k2, p1, p2 -> OpenCV's (k1, k2, p1, p2, k3)
+            d[:4] = cam.params[4:8]
+        dists[i] = d
+        w2c = np.eye(4)
+        w2c[:3, :] = np.asarray(image.cam_from_world().matrix(), np.float64)
+        poses[i] = np.linalg.inv(w2c)
+        xy, pid = [], []
+        for p2d in image.points2D:
+            if p2d.has_point3D():
+                xy.append(np.asarray(p2d.xy, np.float64) - 0.5)
+                pid.append(index[p2d.point3D_id])
+        obs[i] = (np.array(xy, np.float64).reshape(-1, 2), np.array(pid, np.int64))
+    err = float(rec.compute_mean_reprojection_error()) if len(ids) else float("nan")
+    return SfmReconstruction(registered, Ks, dists, poses, pts, obs, err, {"num_points": len(ids)})
+
+
+def _median_distance(rec: SfmReconstruction) -> float:
+    d = []
+    for T, (_, pid) in zip(rec.cam_to_world, rec.observations):
+        if T is not None and pid.size:
+            d.append(np.linalg.norm(rec.points[pid] - T[:3, 3], axis=1))
+    return float(np.median(np.concatenate(d))) if d else float("nan")
+
+
+def _depth_ranges(rec: SfmReconstruction) -> list[tuple[float, float] | None]:
+    """Per view, the 2nd and 98th percentile depth of its triangulated points (None without points)."""
+    out: list[tuple[float, float] | None] = []
+    for T, (_, pid) in zip(rec.cam_to_world, rec.observations):
+        if T is None or pid.size < 5:
+            out.append(None)
+            continue
+        z = ((rec.points[pid] - T[:3, 3]) @ T[:3, :3])[:, 2]
+        z = z[z > 0]
+        out.append((float(np.percentile(z, 2)), float(np.percentile(z, 98))) if z.size >= 5 else None)
+    return out
+
+
+def scale_reconstruction(rec: SfmReconstruction, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
+    """Metric by similarity alignment when every view has a pose, else the nominal-distance normalisation.
+
+    Returns the moved reconstruction and ``{"metric", "factor", "method"}``
+    (plus ``"residual"``, the RMS camera-centre error in metres, when aligned).
+    """
+    given = [v.cam_to_world for v in scene.views]
+    idx = [i for i in range(len(given)) if rec.registered[i] and given[i] is not None]
+    if all(g is not None for g in given) and len(idx) >= 3:
+        src = np.array([rec.cam_to_world[i][:3, 3] for i in idx])  # type: ignore[index]
+        dst = np.array([np.asarray(given[i], np.float64)[:3, 3] for i in idx])
+        spread = np.linalg.norm(dst - dst.mean(0), axis=1).max()
+        if spread > 1e-6:
+            s, R, t = umeyama(src, dst)
+            out = rec.transformed(s, R, t)
+            res = float(np.sqrt(np.mean(np.sum((np.array([out.cam_to_world[i][:3, 3] for i in idx]) - dst) ** 2, axis=1))))  # type: ignore[index]
+            return out, {"metric": True, "factor": float(s), "method": "similarity alignment of SfM camera centres to the given poses", "residual": res}
+    med = _median_distance(rec)
+    s = NOMINAL_DISTANCE / med if np.isfinite(med) and med > 0 else 1.0
+    first = next(T for T in rec.cam_to_world if T is not None)
+    Rw = first[:3, :3].T  # world frame = the first registered camera
+    out = rec.transformed(s, Rw, -s * Rw @ first[:3, 3])
+    return out, {"metric": False, "factor": float(s), "method": f"median camera-to-point distance scaled to {NOMINAL_DISTANCE} m (NOMINAL_DISTANCE)"}
+
+
+def _fill_view(points: np.ndarray, conf: np.ndarray, rgb: np.ndarray, T: np.ndarray, K: np.ndarray, confidence: float, replace: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Fill a world point map's holes per colour region (camera-frame depth, then back to the world)."""
+    from ...scene import backproject
+    from .densify import color_regions, fill_depth_by_regions
+
+    cam = ((points.astype(np.float64) - T[:3, 3]) @ T[:3, :3])[..., 2]
+    z = fill_depth_by_regions(cam, color_regions(rgb), replace=replace)
+    new = (np.ones(z.shape, bool) if replace else ~np.isfinite(points).all(-1)) & np.isfinite(z) & (z > 0)
+    filled = backproject(np.where(new, z, 0).astype(np.float32), K, T)
+    p = points.copy()
+    c = conf.copy()
+    c[new & ~np.isfinite(points).all(-1)] = confidence
+    p[new] = filled[new]
+    return p, c
+
+
+def _consistent(
+    pts: list[np.ndarray], conf: list[np.ndarray], rgb: list[np.ndarray], Ks: list[np.ndarray], poses: list[np.ndarray], neighbours: list[list[int]]
+) -> tuple[list[np.ndarray], list[np.ndarray], list[float]]:
+    """Stereo points checked against the other views (:func:`graphseg.backends.lifters.stereo.view_consistency`).
+
+    A point that no checking neighbour confirms is dropped (the fill then
+    decides that pixel); the confidence of the others is the fused stereo
+    agreement times the share of checking neighbours that confirm them.
+    Returns the new points, confidences and the dropped fraction per view.
+    """
+    from .stereo import view_consistency
+
+    agree, checked = view_consistency(pts, Ks, poses, neighbours, images=rgb)
+    out_p, out_c, dropped = [], [], []
+    for p, c, a, k in zip(pts, conf, agree, checked):
+        bad = (k > 0) & (a == 0)
+        p = p.copy()
+        p[bad] = np.nan
+        share = np.where(k > 0, a / np.maximum(k, 1), 0.5).astype(np.float32)  # unchecked: half confidence
+        out_p.append(p)
+        out_c.append(np.where(np.isfinite(p).all(-1), c * share, 0).astype(np.float32))
+        dropped.append(float(bad.mean()))
+    return out_p, out_c, dropped
+
+
+class SfmLifter(Backend):
+    """The ``sfm`` lifter: SfM cameras + stereo / triangulated depth for RGB-only scenes.
+
+    Parameters
+    ----------
+    options : SfmLifter.Options, optional
+        Or the options below as keywords (the defaults live in ``Options``).
+    peak_threshold, min_tri_angle :
+        See :func:`run_sfm`.
+    num_threads : int
+        Unused: COLMAP runs on one thread so that the same photos give the
+        same result (kept so that configurations naming it still load).
+    stereo : bool
+        Dense stereo where a neighbour is close (:func:`graphseg.backends.lifters.stereo.stereo_depths`).
+    max_pair_angle : float
+        Degrees; neighbours whose viewing directions differ more are not used for stereo.
+    max_neighbours : int
+        Stereo pairs fused per view.
+    sparse_radius : int
+        A triangulated point fills a ``(2 r + 1)^2`` pixel block where nothing
+        else gave a point (r = 1: every 2-pixel stride of the 3D stage still sees it).
+    fill : "planes", True or False
+        ``"planes"``: every colour superpixel with enough stereo or
+        triangulated points becomes one plane in inverse depth (holes filled,
+        known pixels replaced; depth edges then follow colour edges, which the
+        geometric segmenter needs: stereo blurs depth edges). True: fill holes
+        only. False: no filling.
+        (:func:`graphseg.backends.lifters.densify.fill_depth_by_regions`.)
+    fill_confidence : float
+        Confidence of pixels that only the fill gave a point.
+    consistency : bool
+        Check every stereo point against the neighbour views (forward-backward
+        reprojection at the same depth and colour,
+        :func:`graphseg.backends.lifters.stereo.view_consistency`): points no neighbour
+        confirms are dropped before the fill, and the share that confirm
+        becomes part of the confidence. Off by default: on the tuning half of
+        ``bench_rgb_only.py`` it left the mean IoU unchanged (0.582) and cost
+        2-15 s per scene (``docs/results.md``).
+    camera_model : str
+        The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
+    seed : int
+        COLMAP's random seed (None: 0).
+    """
+
+    name = "sfm"
+
+    class Options(BaseModel):
+        model_config = ConfigDict(extra="forbid")
+        peak_threshold: float = Field(0.002, gt=0, description="SIFT detector threshold (COLMAP's default 0.0067 finds too few keypoints on renders)")
+        min_tri_angle: float = Field(2.0, gt=0, description="degrees: the initial pair's triangulation angle (new points: a quarter of it)")
+        num_threads: int = Field(2, ge=1, description="unused: COLMAP runs on one thread (kept so configurations naming it still load)")
+        stereo: bool = Field(True, description="dense stereo where a neighbour view is close")
+        max_pair_angle: float = Field(45.0, gt=0, description="degrees: neighbours whose viewing directions differ more are not used for stereo")
+        max_neighbours: int = Field(4, ge=1, description="stereo pairs fused per view")
+        sparse_radius: int = Field(1, ge=0, description="a triangulated point fills a (2 r + 1)^2 pixel block")
+        fill: bool | Literal["planes"] = Field("planes", description="'planes': one plane per colour region; True: fill holes only; False: no filling")
+        fill_confidence: float = Field(0.25, ge=0, description="confidence of pixels only the fill gave a point")
+        seed: int | None = Field(0, ge=0, description="COLMAP's random seed (None: 0)")
+        consistency: bool = Field(False, description="check every stereo point against the neighbour views")
+        camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
+
+        @field_validator("camera_model")
+        @classmethod
+        def _known_model(cls, v: str) -> str:
+            if v not in CAMERA_MODELS:
+                raise ValueError(f"unknown camera_model {v!r}; choose one of {', '.join(CAMERA_MODELS)}")
+            return v
+
+        def run_sfm_kwargs(self) -> dict[str, Any]:
+            """The keywords :func:`run_sfm` takes from these options.
+
+            Examples
+            --------
+            >>> SfmLifter.Options().run_sfm_kwargs()["camera_model"]
+            'SIMPLE_PINHOLE'
+            """
+            seed = 0 if self.seed is None else int(self.seed)
+            return {"peak_threshold": self.peak_threshold, "min_tri_angle": self.min_tri_angle, "seed": seed, "camera_model": self.camera_model}
+
+    def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
+        """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
+        n = len(scene)
+        given = [v.K for v in scene.views]
+        Ks = [np.asarray(k) for k in given if k is not None]
+        rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, **self.options.run_sfm_kwargs())
+        if rec.num_registered < 2 or n < 2:
+            missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
+            raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")
+        return scale_reconstruction(rec, scene)
+
+    def __call__(self, scene: Scene) -> Scene:
+        """The lifted scene of the registered views.
+
+        When structure from motion registers only ``k`` of ``n`` views (``k >= 2``),
+        the scene keeps the ``k`` registered views; ``meta["dropped_views"]`` names
+        the others and ``meta["warnings"]`` holds one line saying so.
+        """
+        rec, scale = self.reconstruct(scene)
+        keep = np.flatnonzero(rec.registered)
+        dropped = [scene.views[i].name for i in range(len(scene)) if not rec.registered[i]]
+        if dropped:
+            scene, rec = scene.select(keep.tolist()), rec.select(keep)
+        lifted = self.point_maps(scene, rec, scale)
+        if dropped:
+            lifted.meta["dropped_views"] = dropped
+            lifted.meta["warnings"] = [
+                *lifted.meta.get("warnings", []),
+                f"structure from motion registered {len(keep)} of {len(keep) + len(dropped)} views; segmenting those {len(keep)}, without: {', '.join(dropped)}",
+            ]
+        return lifted
+
+    def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
+        """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
+        from .stereo import select_neighbours, sparse_point_maps, stereo_depths
+
+        rgb = [v.rgb for v in scene.views]
+        Ks = [np.asarray(k) for k in rec.K]
+        poses = [np.asarray(T) for T in rec.cam_to_world]
+        dists = [np.asarray(d) for d in rec.dist]
+        o = self.options
+        h, w = scene.views[0].shape
+        if o.stereo:
+            ranges = _depth_ranges(rec)
+            pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=o.max_pair_angle, max_neighbours=o.max_neighbours, depth_ranges=ranges)
+            if o.consistency:
+                pts, conf, info["inconsistent"] = _consistent(pts, conf, rgb, Ks, poses, select_neighbours(poses, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours))
+        else:
+            pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
+            conf = [np.zeros((h, w), np.float32) for _ in rgb]
+            info = {}
+        seeds = sparse_point_maps(rec.points, rec.observations, (h, w), radius=0)
+        sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=o.sparse_radius)
+        views = []
+        for i, v in enumerate(scene.views):
+            p = pts[i].copy()
+            c = conf[i].copy()
+            dense = np.isfinite(p).all(-1)
+            seed = ~dense & np.isfinite(seeds[i]).all(-1)
+            p[seed] = seeds[i][seed]
+            c[seed] = 0.5
+            if o.fill:
+                p, c = _fill_view(p, c, rgb[i], poses[i], Ks[i], o.fill_confidence, o.fill == "planes")
+            rest = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
+            p[rest] = sparse[i][rest]
+            c[rest] = 0.5
+            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": float(dense.mean())}))
+        meta = {
+            **scene.meta,
+            "scale": scale,
+            "sfm": {"registered": rec.num_registered, "views": len(scene), "points": int(len(rec.points)), "reprojection_error": rec.reprojection_error, **info},
+        }
+        return Scene(views, dict(scene.objects), scene.name, meta)
