@@ -263,3 +263,15 @@ def test_method_becomes_stages_and_contractor_when_the_config_is_built():
     for cfg in (sam3d, mc, minus):
         assert Config.model_validate(cfg.to_dict()) == cfg and cfg.for_method() is cfg  # idempotent: a saved config reloads to the same run
     assert Config.preset("rgbd").stage_names() == [["pixel_match"], ["chamfer_3d"]]  # graphseg keeps its stages
+
+
+def test_lifted_preset_swaps_stages_and_contractor_for_estimated_points_only():
+    """LiftedConfig.preset: estimated points run another preset's stages and contractor; measured depth keeps its own."""
+    cfg = Config.preset("rgbd", lifted={"preset": "robust"})
+    est = cfg.for_lifter("sfm")
+    assert est.stage_names() == Config.preset("robust").stage_names() and est.contractor == Config.preset("robust").contractor
+    assert est.criterion_options("chamfer_3d")["fragment_ratio"] == 0.5  # the criteria overrides still apply on top
+    assert cfg.for_lifter("rgbd") is cfg and est.for_lifter("sfm") == est  # idempotent
+    assert Config.preset("rgbd").lifted.preset is None
+    with pytest.raises(ValidationError, match="unknown preset 'robsut'"):
+        Config.preset("rgbd", lifted={"preset": "robsut"})
