@@ -290,13 +290,16 @@ def stereo_depths(
     dists: Sequence[np.ndarray | None],
     poses: Sequence[np.ndarray],
     *,
-    max_pair_angle: float = 20.0,
-    max_neighbours: int = 4,
+    max_pair_angle: float,
+    max_neighbours: int,
     depth_ranges: Sequence[tuple[float, float] | None] | None = None,
     rel_tolerance: float = 0.02,
     min_agree: int = 2,
 ) -> tuple[list[np.ndarray], list[np.ndarray], dict[str, Any]]:
     """World point maps ``[H, W, 3]`` and confidences ``[H, W]`` from fused stereo pairs.
+
+    ``max_pair_angle`` (degrees) and ``max_neighbours`` are required: their
+    defaults live in ``SfmLifter.Options`` (:mod:`graphseg.backends.lifters.sfm`).
 
     Every unordered neighbour pair (:func:`select_neighbours`) is matched once
     and gives depth to both views; each view then fuses its pairs with
