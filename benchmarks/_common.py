@@ -6,6 +6,7 @@ import json
 import os
 import platform
 import resource
+import subprocess
 import time
 import tracemalloc
 from collections.abc import Callable, Sequence
@@ -41,6 +42,19 @@ def peak_rss_mb() -> float:
 
 def machine() -> dict[str, Any]:
     return {"python": platform.python_version(), "machine": platform.machine(), "cpus": os.cpu_count()}
+
+
+def git_state(root: str | os.PathLike[str]) -> dict[str, Any]:
+    """The checkout a benchmark ran on: ``commit`` (None outside git), ``uncommitted_files`` and ``uncommitted`` (their paths)."""
+
+    def git(*args: str) -> str:
+        try:
+            return subprocess.run(["git", *args], cwd=root, capture_output=True, text=True, timeout=30).stdout.strip()
+        except (OSError, subprocess.SubprocessError):
+            return ""
+
+    status = [line[3:] for line in git("status", "--porcelain").splitlines() if line.strip()]
+    return {"commit": git("rev-parse", "HEAD") or None, "uncommitted_files": len(status), "uncommitted": status}
 
 
 def print_table(rows: Sequence[dict[str, Any]], columns: Sequence[str]) -> str:

@@ -62,7 +62,6 @@ import argparse
 import itertools
 import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -73,6 +72,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.dirname(__file__))
+
+from _common import git_state  # noqa: E402
 
 from graphseg import Config  # noqa: E402
 from graphseg.backends.registry import matchers, segmenters  # noqa: E402
@@ -121,10 +123,11 @@ class Renderer:
 def _render_poses(spec: Any, poses: list[tuple[np.ndarray, np.ndarray]]) -> list[View]:
     """The family scene ``spec`` (same seed, objects, layout, table, light: the same settled objects) seen from ``poses``.
 
-    ``synthesize`` is run as for the family, with its ``render_view`` asked for
-    the given (eye, target) poses instead of its own ring (the camera draws
+    The family's ``make_scene`` is run with ``pybullet_scenes.render_view`` asked
+    for the given (eye, target) poses instead of its own ring (the camera draws
     happen after the objects settle, so the objects do not move).
     """
+    from graphseg.sim import families
     from graphseg.sim import pybullet_scenes as ps
 
     queue = list(poses)
@@ -135,19 +138,7 @@ def _render_poses(spec: Any, poses: list[tuple[np.ndarray, np.ndarray]]) -> list
         return real(p, cid, np.asarray(e, np.float64), np.asarray(t, np.float64), size, fov, near, far, light)
 
     with mock.patch.object(ps, "render_view", at_pose):
-        s = ps.synthesize(
-            seed=spec.seed,
-            objects=spec.objects,
-            views=len(poses),
-            size=SIZE,
-            arc_deg=spec.arc_deg,
-            height=spec.height,
-            layout=spec.layout,
-            object_set=spec.object_set,
-            table_texture=spec.table_texture,
-            lighting=spec.lighting,
-            fov_deg=FOV,
-        )
+        s = families.make_scene(spec, views=len(poses), size=SIZE, fov_deg=FOV)
     assert not queue
     return list(s.views)
 
@@ -395,17 +386,6 @@ def summarise(rows: list[dict[str, Any]], weights: dict[str, float]) -> dict[str
     return out
 
 
-def _git() -> dict[str, Any]:
-    def git(*args: str) -> str:
-        try:
-            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-
-    status = [line[3:] for line in git("status", "--porcelain").splitlines() if line.strip()]
-    return {"commit": git("rev-parse", "HEAD") or None, "uncommitted_files": len(status)}
-
-
 def markdown(payload: dict[str, Any]) -> str:
     lines = [
         f"Next-best-view, {payload['scenes']} pybullet scenes (family pairs {list(PAIRS)}, {SIZE[0]}x{SIZE[1]}, true depth, `Config.preset(\"rgbd\")`), "
@@ -531,7 +511,7 @@ def main(argv: list[str] | None = None) -> int:
         out = tune([s for s in specs if s.half == "tune"])
         path = Path(args.json) if args.json else RESULTS / "nbv.tune.json"
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps({"git": _git(), "elapsed_s": time.perf_counter() - t0, **out}, indent=1, default=float))
+        path.write_text(json.dumps({"git": git_state(ROOT), "elapsed_s": time.perf_counter() - t0, **out}, indent=1, default=float))
         print(f"best weights {out['best']}; wrote {path}")
         return 0
     partial = bool(args.scenes) or args.quick
@@ -546,7 +526,7 @@ def main(argv: list[str] | None = None) -> int:
         )
     payload = {
         "argv": list(sys.argv[1:] if argv is None else argv),
-        "git": _git(),
+        "git": git_state(ROOT),
         "machine_note": f"{os.cpu_count()} CPU cores, shared",
         "elapsed_s": time.perf_counter() - t0,
         "scenes": len(rows),

@@ -79,7 +79,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _common import print_table, write_json  # noqa: E402
+from _common import git_state, print_table, write_json  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 YCBV = ROOT.parent / "shared" / "data" / "ycbv"
@@ -441,17 +441,6 @@ SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_de
 CHECK_COLS = ["half", "check", "n", "value", "pass"]
 
 
-def _git() -> dict:
-    def git(*args: str) -> str:
-        try:
-            return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True, timeout=30).stdout.strip()
-        except (OSError, subprocess.SubprocessError):
-            return ""
-
-    status = [line[3:] for line in git("status", "--porcelain").splitlines() if line.strip()]
-    return {"commit": git("rev-parse", "HEAD") or None, "uncommitted_files": len(status), "uncommitted": status}
-
-
 def report(payload: dict, path: Path) -> None:
     rows = payload["rows"]
     synth = [r for r in rows if r.get("group") == "synthetic"]
@@ -530,7 +519,7 @@ def main(argv=None) -> int:
     rows = sorted(old_rows + rows, key=lambda r: (r.get("group") != "synthetic", order.get(r["scene"], 10**6), r["scene"]))
     payload = {
         "argv": list(sys.argv[1:] if argv is None else argv),
-        "git": _git(),
+        "git": git_state(ROOT),
         "config_source": args.config or "Config.preset('rgbd')",
         "depth_config_source": args.depth_config or "Config.preset('rgbd')",
         "config": _config(config).to_dict(),

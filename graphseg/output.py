@@ -98,6 +98,7 @@ __all__ = [
     "atomic_file",
     "read_marker",
     "clean_stale",
+    "pid_alive",
     "backup_message",
     "BACKUP",
     "unique_file_names",
@@ -425,7 +426,17 @@ def check_target(
     return p
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` may still run: the owner test of a temporary file named after its writer.
+
+    True for this process and for any process that exists (also one of
+    another user); False only when there is no such process.
+
+    Examples
+    --------
+    >>> pid_alive(os.getpid())
+    True
+    """
     if pid == os.getpid():
         return True
     try:
@@ -451,7 +462,7 @@ def clean_stale(out: str | os.PathLike[str]) -> list[Path]:
     removed = []
     for q in p.parent.iterdir():
         m = pat.match(q.name)
-        if not m or q.is_symlink() or not q.is_dir() or read_marker(q) is None or _pid_alive(int(m.group(1))):
+        if not m or q.is_symlink() or not q.is_dir() or read_marker(q) is None or pid_alive(int(m.group(1))):
             continue
         shutil.rmtree(q, ignore_errors=True)
         removed.append(q)

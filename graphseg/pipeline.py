@@ -27,7 +27,7 @@ from .method.segment import segment
 from .result import Result
 from .scene import Matches, Scene
 
-__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry"]
+__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry", "progress_bar"]
 
 #: The backend kinds and their registries (entry-point groups ``graphseg.segmenters``, ...).
 BACKEND_REGISTRIES: dict[str, Any] = {"segmenter": segmenters, "matcher": matchers, "lifter": lifters, "features": feature_registry}
@@ -104,7 +104,32 @@ def _name(spec: Any, default: str) -> str:
     return spec if isinstance(spec, str) else str(getattr(spec, "name", None) or default)
 
 
-def _progress(iterable: Any, desc: str, enabled: bool, total: int | None = None) -> Any:
+def progress_bar(iterable: Any, desc: str, enabled: bool, total: int | None = None) -> Any:
+    """``iterable`` wrapped in a tqdm progress bar named ``desc`` when ``enabled`` (else itself).
+
+    The bar is left out when stderr is not a terminal, and removed when done.
+
+    Parameters
+    ----------
+    iterable : iterable
+    desc : str
+        The bar's label (e.g. ``"segment"``).
+    enabled : bool
+        False returns ``iterable`` itself (tqdm is not imported).
+    total : int, optional
+        The number of items, for an iterable without ``len``.
+
+    Returns
+    -------
+    iterable
+        The same items in the same order.
+
+    Examples
+    --------
+    >>> items = [1, 2]
+    >>> progress_bar(items, "x", False) is items, list(progress_bar(items, "x", True))
+    (True, [1, 2])
+    """
     if not enabled:
         return iterable
     from tqdm.auto import tqdm
@@ -135,7 +160,7 @@ def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = N
     """One mask set per view from the segmenter."""
     cfg = config or Config()
     seg = resolve_backend("segmenter", segmenter or cfg.backends.segmenter, cfg)
-    return [seg(v) for v in _progress(scene.views, "segment", progress)]
+    return [seg(v) for v in progress_bar(scene.views, "segment", progress)]
 
 
 def compute_matches(
@@ -161,7 +186,7 @@ def compute_matches(
             scale=scale,
             auto_max_views=cfg.pairs.auto_max_views,
         )
-    return {(i, j): m(scene[i], scene[j]) for i, j in _progress(pairs, "match", progress)}
+    return {(i, j): m(scene[i], scene[j]) for i, j in progress_bar(pairs, "match", progress)}
 
 
 def _given_masks(scene: Scene, masks: Any) -> list[Any]:
@@ -277,7 +302,7 @@ def run(
     if "features" in cfg.requires():
         t = time.perf_counter()
         fx = resolve_backend("features", features or cfg.backends.features, cfg)
-        feats = [fx(v) for v in _progress(scene.views, "features", progress)]
+        feats = [fx(v) for v in progress_bar(scene.views, "features", progress)]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()
     result = segment(scene, masks, matches, cfg, features=feats)

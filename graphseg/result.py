@@ -25,7 +25,7 @@ import numpy as np
 from .config import Config
 from .graphs import CorrespondenceGraph, PointSets, load_native, save_native
 
-__all__ = ["Result"]
+__all__ = ["Result", "jsonable"]
 
 
 @dataclass
@@ -140,7 +140,7 @@ class Result:
             "kind": "graphseg-result",
             "config": self.config.to_dict(),
             "view_names": self.view_names,
-            "info": _without_timings(json.loads(json.dumps(self.info, default=_jsonable))),
+            "info": _without_timings(json.loads(json.dumps(self.info, default=jsonable))),
             "num_stages": len(self.graphs),
         }
         save_native(path, {f"stage{s}": g for s, g in enumerate(self.graphs)}, arrays, meta)
@@ -257,7 +257,16 @@ def _without_timings(x: Any) -> Any:
     return x
 
 
-def _jsonable(x: Any) -> Any:
+def jsonable(x: Any) -> Any:
+    """The ``default`` of :func:`json.dumps` for ``Result.info`` and the store's documents.
+
+    numpy scalars become Python numbers, arrays lists, anything else its ``str``.
+
+    Examples
+    --------
+    >>> json.dumps({"n": np.int64(3), "a": np.zeros(2), "p": Ellipsis}, default=jsonable)
+    '{"n": 3, "a": [0.0, 0.0], "p": "Ellipsis"}'
+    """
     if isinstance(x, np.generic):
         return x.item()
     if isinstance(x, np.ndarray):

@@ -13,7 +13,10 @@
    every node of every stage graph carries its final object id (node column
    ``object``).
 
-The criteria receive exactly the evidence they ``require`` (built once).
+The criteria receive exactly the evidence they ``require`` (built once,
+:func:`evidence_fields`). Steps 3 and 4 are public, :func:`run_stages` and
+:func:`finish_segmentation`, so that the store's incremental update
+(:mod:`graphseg.store.incremental`) runs the same code with its own edge source.
 
 Examples
 --------
@@ -28,22 +31,22 @@ Examples
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from ..config import Config
+from ..config import Config, CriterionSpec
 from ..graphs import CorrespondenceGraph, Evidence, coarsen, node_point_sets
 from ..graphs.contract import canonical_cluster
 from ..graphs.signed import run_contractor
 from ..result import Result
-from ..scene import Matches, Scene, SceneError
+from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
 from .masks import compose_masks, paint_masks
 from .refine import project_to_view, refine_labels
 
-__all__ = ["segment", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
+__all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
 MasksLike = Sequence[Any]
 
@@ -67,31 +70,80 @@ def _check_inputs(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, in
 
 def _validate_masks(scene: Scene, masks: MasksLike) -> list[Any]:
     """Check each view's masks; return them with bool stacks split into lists."""
-    out: list[Any] = []
-    for view, m in zip(scene.views, masks):
-        h, w = view.shape
-        if isinstance(m, np.ndarray):
-            if m.ndim == 2 and m.shape == (h, w) and m.dtype.kind in "iu":
-                out.append(m)
-                continue
-            if m.ndim == 3 and m.shape[1:] == (h, w) and m.dtype == bool:
-                out.append(list(m))
-                continue
-            raise SceneError(
-                f"expected an int label image [{h}, {w}] or a bool stack [K, {h}, {w}] (got {m.dtype} {list(m.shape)})", where=view.name, field="masks"
-            )
-        if not isinstance(m, (list, tuple)):
-            raise SceneError(f"expected a list of bool masks [{h}, {w}], a bool stack or a label image (got {type(m).__name__})", where=view.name, field="masks")
-        for k, mk in enumerate(m):
-            a = np.asarray(mk)
-            if a.shape != (h, w) or a.dtype.kind not in "biu":
-                raise SceneError(f"expected a bool mask [{h}, {w}] (got {a.dtype} {list(a.shape)})", where=view.name, field=f"masks[{k}]")
-        out.append(list(m))
-    return out
+    return [view_masks(m, view) for view, m in zip(scene.views, masks)]
 
 
-def _finite_points(points: np.ndarray) -> np.ndarray:
-    """``points`` with every pixel that has a non-finite coordinate set to NaN (a copy only if needed)."""
+def view_masks(masks: Any, view: View) -> Any:
+    """One view's masks, checked: an int label image as is, a bool stack or a list as a list of masks.
+
+    Parameters
+    ----------
+    masks : int ``[H, W]``, bool ``[K, H, W]`` or list of bool or int ``[H, W]``
+        The segmenter's output for ``view`` (0 = none in a label image).
+    view : View
+        Gives ``[H, W]`` and the name in errors.
+
+    Returns
+    -------
+    int ``[H, W]`` or list of ``[H, W]``
+        The label image itself, or the masks (not copied).
+
+    Raises
+    ------
+    SceneError
+        For a wrong shape or dtype: ``VIEW: masks: expected ... (got ...)``.
+
+    Examples
+    --------
+    >>> from graphseg.scene import View
+    >>> v = View("a", np.zeros((2, 3, 3), np.uint8))
+    >>> len(view_masks(np.zeros((4, 2, 3), bool), v)), view_masks(np.ones((2, 3), np.int32), v).shape
+    (4, (2, 3))
+    >>> view_masks([np.zeros((3, 2), bool)], v)
+    Traceback (most recent call last):
+    ...
+    graphseg.scene.SceneError: a: masks[0]: expected a bool mask [2, 3] (got bool [3, 2])
+    """
+    h, w = view.shape
+    if isinstance(masks, np.ndarray):
+        if masks.ndim == 2 and masks.shape == (h, w) and masks.dtype.kind in "iu":
+            return masks
+        if masks.ndim == 3 and masks.shape[1:] == (h, w) and masks.dtype == bool:
+            return list(masks)
+        raise SceneError(
+            f"expected an int label image [{h}, {w}] or a bool stack [K, {h}, {w}] (got {masks.dtype} {list(masks.shape)})", where=view.name, field="masks"
+        )
+    if not isinstance(masks, (list, tuple)):
+        raise SceneError(f"expected a list of bool masks [{h}, {w}], a bool stack or a label image (got {type(masks).__name__})", where=view.name, field="masks")
+    for k, mk in enumerate(masks):
+        a = np.asarray(mk)
+        if a.shape != (h, w) or a.dtype.kind not in "biu":
+            raise SceneError(f"expected a bool mask [{h}, {w}] (got {a.dtype} {list(a.shape)})", where=view.name, field=f"masks[{k}]")
+    return list(masks)
+
+
+def finite_points(points: np.ndarray) -> np.ndarray:
+    """``points`` with every pixel that has a non-finite coordinate set to NaN (a copy only if needed).
+
+    Parameters
+    ----------
+    points : float ``[H, W, 3]``
+
+    Returns
+    -------
+    float ``[H, W, 3]``
+        ``points`` itself when all is finite, else a float32 copy.
+
+    Notes
+    -----
+    O(H W).
+
+    Examples
+    --------
+    >>> p = np.zeros((1, 2, 3)); p[0, 1, 0] = np.inf
+    >>> finite_points(p)[0].tolist()
+    [[0.0, 0.0, 0.0], [nan, nan, nan]]
+    """
     p = np.asarray(points)
     fin = np.isfinite(p)
     if fin.all():  # common case: one SIMD pass over the flat array, no per-pixel reduction
@@ -467,19 +519,68 @@ def fragment_neighbours(labels: np.ndarray, points: np.ndarray, center: np.ndarr
     return out
 
 
-def _degenerate_warnings(scene: Scene, graph: CorrespondenceGraph, num_objects: int) -> list[str]:
+def _degenerate_warnings(num_views: int, num_masks: int, num_objects: int) -> list[str]:
     warn = []
-    if scene.num_views == 1:
+    if num_views == 1:
         warn.append("only one view: no cross-view evidence, every mask is its own object")
-    if graph.num_nodes == 0:
+    if num_masks == 0:
         warn.append("no usable masks (every mask was empty, background, or below masks.min_area): 0 objects")
     elif num_objects == 0:
         warn.append("0 objects found")
     return warn
 
 
-def _evidence_fields(required: frozenset[str], scene: Scene, matches: Mapping[tuple[int, int], Matches], points: list[np.ndarray], features: Any, labels: list[np.ndarray]) -> dict[str, Any]:
-    """The evidence fields the criteria require, built once (``node_labels`` is added per stage)."""
+def evidence_fields(
+    required: Collection[str],
+    views: Sequence[View],
+    *,
+    matches: Mapping[tuple[int, int], Matches],
+    points: list[np.ndarray],
+    features: Any,
+    labels: list[np.ndarray],
+    name: str,
+) -> dict[str, Any]:
+    """The evidence fields the criteria require, built once for all stages.
+
+    ``node_labels`` is added per stage by
+    :meth:`~graphseg.graphs.Evidence.for_graph`; ``normal_cache`` (an empty
+    dict) lets the stages' criteria compute the normals once.
+
+    Parameters
+    ----------
+    required : set of str
+        ``Config.requires()``: ``matches``, ``points``, ``features``, ``rgb``,
+        ``cameras``, ``confidence``, ``masks``.
+    views : list of View
+        Give ``rgb``, ``cameras`` (``K``, ``cam_to_world``) and ``confidence``.
+    matches : mapping ``(i, j) -> Matches``, keyword-only
+    points : list of float ``[H, W, 3]``, keyword-only
+    features : optional, keyword-only
+        Per-view maps ``[h, w, D]`` or per-node ``[N, D]``.
+    labels : list of int ``[H, W]``, keyword-only
+        The composed masks (``masks``).
+    name : str, keyword-only
+        The scene's name, for errors.
+
+    Returns
+    -------
+    dict
+        The required fields, and ``normal_cache``.
+
+    Raises
+    ------
+    ValueError
+        ``features`` are required and None.
+    SceneError
+        ``rgb`` is required and a view has none.
+
+    Examples
+    --------
+    >>> from graphseg.scene import View
+    >>> v = View("a", np.zeros((2, 3, 3), np.uint8))
+    >>> sorted(evidence_fields({"rgb", "masks"}, [v], matches={}, points=[], features=None, labels=[], name="s"))
+    ['masks', 'normal_cache', 'rgb']
+    """
     out: dict[str, Any] = {}
     if "matches" in required:
         out["matches"] = matches
@@ -490,16 +591,152 @@ def _evidence_fields(required: frozenset[str], scene: Scene, matches: Mapping[tu
             raise ValueError("a configured criterion requires features; pass features= (per-view maps [h, w, D] or per-node [N, D])")
         out["features"] = features
     if "rgb" in required:
-        if any(v.rgb is None for v in scene.views):
-            raise SceneError("a configured criterion requires rgb images", where=scene.name, field="rgb")
-        out["rgb"] = [v.rgb for v in scene.views]
+        if any(v.rgb is None for v in views):
+            raise SceneError("a configured criterion requires rgb images", where=name, field="rgb")
+        out["rgb"] = [v.rgb for v in views]
     if "cameras" in required:
-        out["cameras"] = [(v.K, v.cam_to_world) for v in scene.views]
+        out["cameras"] = [(v.K, v.cam_to_world) for v in views]
     if "confidence" in required:
-        out["confidence"] = [v.confidence for v in scene.views]
+        out["confidence"] = [v.confidence for v in views]
     if "masks" in required:
         out["masks"] = labels
+    out["normal_cache"] = {}  # normals are computed once for all stages' criteria
     return out
+
+
+#: What an edge source gives for one criterion on one stage graph: the edges, as parts
+#: ``(edge_index int64 [2, E], edge_attr {name: [E]})``, and the adder's info (``Result.info["stages"]``).
+StageEdges = tuple[list[tuple[np.ndarray, dict[str, np.ndarray]]], dict[str, Any]]
+
+
+def criterion_edges(spec: CriterionSpec, stage: int, graph: CorrespondenceGraph, evidence: Evidence) -> StageEdges:
+    """The edges one configured criterion adds to one stage graph, computed on the whole graph.
+
+    The default edge source of :func:`run_stages`.
+
+    Parameters
+    ----------
+    spec : CriterionSpec
+        The criterion and its options (one entry of ``config.stages``).
+    stage : int
+        The stage index (unused here; part of the edge-source signature).
+    graph : CorrespondenceGraph
+        The stage's graph before edges are added.
+    evidence : Evidence
+        :meth:`~graphseg.graphs.Evidence.for_graph` of ``graph``.
+
+    Returns
+    -------
+    parts : list of (int64 ``[2, E]``, dict of ``[E]``)
+        One part: the criterion's edges and their attributes.
+    info : dict
+        ``edges`` (E) and the criterion's scalar diagnostics.
+
+    Notes
+    -----
+    The cost of the criterion.
+
+    Examples
+    --------
+    >>> lab = [np.array([[1, 1, 2]]), np.array([[1, 1, 0]])]   # masks 0, 1 of view 0; mask 0 of view 1
+    >>> pts = [np.zeros((1, 3, 3)), np.zeros((1, 3, 3))]
+    >>> pts[0][0, 2] = 1.0                                      # mask 1 of view 0 lies 1 m away
+    >>> g = CorrespondenceGraph.from_masks(lab, pts)
+    >>> spec = CriterionSpec.model_validate({"chamfer_3d": {"tau": 1e-4}})
+    >>> parts, info = criterion_edges(spec, 1, g, Evidence.for_graph(g, points=pts))
+    >>> parts[0][0].tolist(), info["edges"]
+    ([[0], [2]], 1)
+    """
+    es = spec.build()(graph, evidence)
+    return [(es.edge_index, dict(es.edge_attr))], {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
+
+
+def run_stages(
+    graph: CorrespondenceGraph,
+    config: Config,
+    shared: Mapping[str, Any],
+    *,
+    rng: np.random.Generator,
+    edges: Callable[[CriterionSpec, int, CorrespondenceGraph, Evidence], StageEdges] = criterion_edges,
+) -> tuple[CorrespondenceGraph, list[CorrespondenceGraph], list[dict[str, Any]]]:
+    """Edge addition and contraction, stage by stage: the core of :func:`segment`.
+
+    For each stage of ``config.stages``, every criterion's edges are added to
+    a copy of the current graph (edge columns ``stage`` and ``criterion``
+    set), the contractor (``config.contractor``) partitions it and
+    :func:`~graphseg.graphs.coarsen` builds the next graph
+    (``config.edge_reduce()`` merges parallel edges).
+
+    Parameters
+    ----------
+    graph : CorrespondenceGraph
+        The mask graph.
+    config : Config
+        ``stages``, ``contractor`` and the criteria's ``reduce`` are read.
+    shared : mapping
+        The evidence fields the criteria require (``node_labels`` is added
+        per stage by :meth:`~graphseg.graphs.Evidence.for_graph`).
+    rng : numpy.random.Generator, keyword-only
+        Randomness of the contractor.
+    edges : callable, keyword-only
+        ``edges(spec, stage, graph, evidence) -> (parts, info)``: the edges
+        of one criterion on one stage graph (default :func:`criterion_edges`;
+        the store's incremental update reuses the edges of its last update).
+
+    Returns
+    -------
+    partition : CorrespondenceGraph
+        The graph after the last contraction (``graph`` itself without stages).
+    stage_graphs : list of CorrespondenceGraph
+        One per stage, with that stage's edges (``meta["stage"]`` set).
+    stage_info : list of dict
+        Per stage: ``stage``, ``nodes``, ``adders`` (each criterion's info),
+        ``components`` and ``seconds``.
+
+    Notes
+    -----
+    The cost of the criteria, plus one contraction and one coarsening per
+    stage (about linear in nodes + edges).
+
+    Examples
+    --------
+    >>> from graphseg.testing.scenes import two_boxes_scene
+    >>> from graphseg.method.masks import compose_masks
+    >>> scene, masks, matches = two_boxes_scene()
+    >>> labels = [compose_masks(m)[0] for m in masks]
+    >>> g = CorrespondenceGraph.from_masks(labels, [v.points for v in scene.views])
+    >>> cfg = Config.preset("rgbd")
+    >>> shared = {"matches": matches, "points": [v.points for v in scene.views], "normal_cache": {}}
+    >>> part, graphs, info = run_stages(g, cfg, shared, rng=np.random.default_rng(0))
+    >>> [s["nodes"] for s in info], part.num_nodes      # 2 boxes x 2 parts x 3 views + 3 table masks
+    ([15, 3], 3)
+    """
+    contractor = config.contractor.build()
+    edge_reduce = config.edge_reduce()
+    stage_graphs: list[CorrespondenceGraph] = []
+    stage_info: list[dict[str, Any]] = []
+    current = graph
+    for s, stage in enumerate(config.stages):
+        t = time.perf_counter()
+        evidence = Evidence.for_graph(current, **shared)
+        with_edges = current.copy()
+        info_s: dict[str, Any] = {"stage": s, "nodes": current.num_nodes, "adders": {}}
+        for spec in stage:
+            parts, info_s["adders"][spec.name] = edges(spec, s, current, evidence)
+            for ei, attrs in parts:
+                n = ei.shape[1]
+                attrs = dict(attrs)
+                attrs["stage"] = np.full(n, s, np.int64)
+                attrs.setdefault("criterion", np.full(n, spec.name))
+                with_edges.add_edges(ei, attrs, in_place=True)
+        cluster = run_contractor(contractor, with_edges.edge_index, with_edges.num_nodes, edge_attr=with_edges.edge_attr, node_attr=with_edges.node_attr, rng=rng)
+        with_edges.meta["stage"] = s
+        stage_graphs.append(with_edges)
+        current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
+        info_s["components"] = current.num_nodes
+        info_s["seconds"] = time.perf_counter() - t
+        stage_info.append(info_s)
+    return current, stage_graphs, stage_info
 
 
 def segment(
@@ -559,7 +796,7 @@ def segment(
     gen = np.random.default_rng(cfg.seed if rng is None else rng)
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    points = [_finite_points(np.asarray(v.points)) for v in scene.views]  # all present (checked above); inf -> invalid
+    points = [finite_points(np.asarray(v.points)) for v in scene.views]  # all present (checked above); inf -> invalid
     centers = [v.camera_center for v in scene.views] if all(v.cam_to_world is not None for v in scene.views) else None
     bg, bg_info = background_masks(points, centers, cfg.background, rng=gen)
     timings["background"] = time.perf_counter() - t0
@@ -576,43 +813,118 @@ def segment(
     graph = CorrespondenceGraph.from_masks(labels, points, meta={"scene": scene.name})
     timings["compose"] = time.perf_counter() - t
 
-    contractor = cfg.contractor.build()
-    edge_reduce = cfg.edge_reduce()
-    shared = _evidence_fields(cfg.requires(), scene, matches, points, features, labels)
-    shared["normal_cache"] = {}  # normals are computed once for all stages' criteria
-    stage_graphs: list[CorrespondenceGraph] = []
-    stage_info: list[dict[str, Any]] = []
-    current = graph
-    for s, stage in enumerate(cfg.stages):
-        t = time.perf_counter()
-        evidence = Evidence.for_graph(current, **shared)
-        with_edges = current.copy()
-        info_s: dict[str, Any] = {"stage": s, "nodes": current.num_nodes, "adders": {}}
-        for spec in stage:
-            criterion = spec.build()
-            es = criterion(current, evidence)
-            attrs = dict(es.edge_attr)
-            attrs["stage"] = np.full(es.num_edges, s, np.int64)
-            attrs.setdefault("criterion", np.full(es.num_edges, spec.name))
-            with_edges.add_edges(es.edge_index, attrs, in_place=True)
-            info_s["adders"][spec.name] = {"edges": es.num_edges, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
-        cluster = run_contractor(contractor, with_edges.edge_index, with_edges.num_nodes, edge_attr=with_edges.edge_attr, node_attr=with_edges.node_attr, rng=gen)
-        with_edges.meta["stage"] = s
-        stage_graphs.append(with_edges)
-        current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
-        info_s["components"] = current.num_nodes
-        info_s["seconds"] = time.perf_counter() - t
-        stage_info.append(info_s)
-        timings[f"stage{s}"] = info_s["seconds"]
+    shared = evidence_fields(cfg.requires(), scene.views, matches=matches, points=points, features=features, labels=labels, name=scene.name)
+    current, stage_graphs, stage_info = run_stages(graph, cfg, shared, rng=gen)
+    timings.update({f"stage{i['stage']}": i["seconds"] for i in stage_info})
 
+    return finish_segmentation(
+        scene.views,
+        current,
+        stage_graphs,
+        labels,
+        points,
+        bg,
+        cfg,
+        info={
+            "background": {"plane": bg_info.plane, "max_distance": bg_info.max_distance, "fraction": bg_info.fraction},
+            "masks": compose_info,
+            "stages": stage_info,
+            "timings": timings,
+            "num_matches": int(sum(len(m) for m in matches.values())),
+            "pairs": [list(p) for p in matches],
+        },
+        start=t0,
+    )
+
+
+def finish_segmentation(
+    views: Sequence[View],
+    partition: CorrespondenceGraph,
+    stage_graphs: list[CorrespondenceGraph],
+    labels: Sequence[np.ndarray],
+    points: Sequence[np.ndarray],
+    background: Sequence[np.ndarray],
+    config: Config,
+    *,
+    info: Mapping[str, Any] | None = None,
+    start: float | None = None,
+) -> Result:
+    """The objects of the final partition, and the :class:`~graphseg.result.Result` of a run.
+
+    The steps after the last contraction, shared by :func:`segment` and the
+    store's incremental update (:func:`graphseg.store.incremental.update`):
+    every super-vertex of ``partition`` becomes one object (ids ``1..K`` by
+    first appearance, :func:`~graphseg.graphs.contract.canonical_cluster`),
+    its masks are painted into label images, the minimum-support rules
+    (:func:`apply_min_support`, ``config.objects``) drop or merge objects,
+    the optional refinement (``config.refine``) relabels pixels, every node of
+    every stage graph gets its final object id (node column ``object``; 0 =
+    below the minimum support) and the object clouds are gathered
+    (``config.output``).
+
+    Parameters
+    ----------
+    views : list of View
+        The views of the run (their ``K``, ``cam_to_world``, ``confidence``,
+        ``rgb``, names and shape are read; their point maps are not).
+    partition : CorrespondenceGraph
+        The graph after the last contraction; its ``members`` map every base
+        mask ``(view, mask_id)`` to its super-vertex.
+    stage_graphs : list of CorrespondenceGraph
+        One per stage, with that stage's edges: they become ``Result.graphs``
+        and their node column ``object`` is set (they are taken over, not copied).
+    labels : list of int ``[H, W]``
+        The composed masks per view, ``mask_id + 1`` (0 = none).
+    points : list of float ``[H, W, 3]``
+        World points per view (NaN = invalid).
+    background : list of bool ``[H, W]``
+        The background class per view.
+    config : Config
+        ``objects``, ``refine`` and ``output`` are read.
+    info : mapping, optional, keyword-only
+        The run's own entries of ``Result.info`` (``background``, ``masks``,
+        ``stages``, ``timings``, ``num_matches``, ``pairs``), kept in their
+        order; ``support``, ``refine`` and ``warnings`` are added, and
+        ``timings`` (a copy) gets ``refine`` (when enabled), ``outputs`` and
+        ``total``.
+    start : float, optional, keyword-only
+        :func:`time.perf_counter` at the start of the run, for
+        ``timings["total"]`` (None: not recorded).
+
+    Returns
+    -------
+    Result
+        ``info["warnings"]`` lists one-line warnings for degenerate input (one
+        view, no usable mask, no object).
+
+    Notes
+    -----
+    O(total pixels) for the label images, the support rules and the object
+    clouds, plus the confirmation test of the objects seen in too few views
+    (:func:`confirming_labels`).
+
+    Examples
+    --------
+    >>> from graphseg.graphs import CorrespondenceGraph
+    >>> from graphseg.testing.scenes import two_boxes_scene
+    >>> scene, masks, _ = two_boxes_scene(views=1)
+    >>> lab = [np.asarray(masks[0][0], np.int32)]          # one mask: mask_id 0 in view 0
+    >>> g = CorrespondenceGraph.from_masks(lab, [scene.views[0].points])
+    >>> res = finish_segmentation(scene.views, g, [g.copy()], lab, [scene.views[0].points], [np.zeros(lab[0].shape, bool)], Config())
+    >>> res.num_objects, res.graphs[0].node_attr["object"].tolist(), res.info["warnings"]
+    (1, [1], ['only one view: no cross-view evidence, every mask is its own object'])
+    """
+    cfg = config
     t = time.perf_counter()
-    mem = current.members
+    head = dict(info or {})
+    timings: dict[str, float] = dict(head.get("timings") or {})
+    mem = partition.members
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
     out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
-    pixels = scene.views[0].shape[0] * scene.views[0].shape[1] if scene.num_views else 0
+    pixels = views[0].shape[0] * views[0].shape[1] if len(views) else 0
     min_points = int(np.ceil(cfg.objects.min_point_fraction * pixels))
-    cameras = [(v.K, v.cam_to_world) for v in scene.views]
-    foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(points, bg)]
+    cameras = [(v.K, v.cam_to_world) for v in views]
+    foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(points, background)]
     obj, out_labels, support = apply_min_support(
         obj,
         out_labels,
@@ -631,7 +943,7 @@ def segment(
         t_refine = time.perf_counter()
         r = cfg.refine
         out_labels, refine_info = refine_labels(
-            out_labels, points, cameras, confidence=[v.confidence for v in scene.views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
+            out_labels, points, cameras, confidence=[v.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
         )
         timings["refine"] = time.perf_counter() - t_refine
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
@@ -639,11 +951,10 @@ def segment(
         col[g.members["node"]] = obj
         g.node_attr["object"] = col
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
-    clouds = node_point_sets(
-        object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in scene.views]
-    )
+    clouds = node_point_sets(object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in views])
     timings["outputs"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
+    if start is not None:
+        timings["total"] = time.perf_counter() - start
     return Result(
         labels=out_labels,
         mask_view=mem["view"].copy(),
@@ -652,17 +963,13 @@ def segment(
         object_points=clouds,
         graphs=stage_graphs,
         config=cfg,
-        view_names=[v.name for v in scene.views],
-        background=bg,
+        view_names=[v.name for v in views],
+        background=list(background),
         info={
-            "background": {"plane": bg_info.plane, "max_distance": bg_info.max_distance, "fraction": bg_info.fraction},
-            "masks": compose_info,
-            "stages": stage_info,
+            **head,
             "timings": timings,
-            "num_matches": int(sum(len(m) for m in matches.values())),
-            "pairs": [list(p) for p in matches],
             "support": support,
             "refine": refine_info,
-            "warnings": _degenerate_warnings(scene, graph, num_objects),
+            "warnings": _degenerate_warnings(len(views), int(mem["node"].size), num_objects),
         },
     )

@@ -154,25 +154,30 @@ def get(name: str) -> SceneSpec:
     raise ValueError(f"unknown benchmark scene {name!r}; choose from {', '.join(s.name for s in SCENES)}")
 
 
-def make_scene(spec: SceneSpec) -> Scene:
+def make_scene(spec: SceneSpec, **overrides: Any) -> Scene:
     """Render ``spec``: the full scene with true depth, poses, ``K`` and instances (needs pybullet).
 
     The scene is named ``spec.name``; ``meta["family"]`` holds the spec.
+    ``overrides`` replace keyword arguments of
+    :func:`~graphseg.sim.pybullet_scenes.synthesize` (e.g. ``size``,
+    ``views``, ``fov_deg``): the same settled objects, table and light, seen
+    by other cameras.
     """
     from .pybullet_scenes import synthesize
 
-    s = synthesize(
-        seed=spec.seed,
-        objects=spec.objects,
-        views=spec.views,
-        size=spec.size,
-        arc_deg=spec.arc_deg,
-        height=spec.height,
-        layout=spec.layout,
-        object_set=spec.object_set,
-        table_texture=spec.table_texture,
-        lighting=spec.lighting,
-    )
+    options: dict[str, Any] = {
+        "seed": spec.seed,
+        "objects": spec.objects,
+        "views": spec.views,
+        "size": spec.size,
+        "arc_deg": spec.arc_deg,
+        "height": spec.height,
+        "layout": spec.layout,
+        "object_set": spec.object_set,
+        "table_texture": spec.table_texture,
+        "lighting": spec.lighting,
+    }
+    s = synthesize(**{**options, **overrides})
     return Scene(s.views, dict(s.objects), spec.name, {**s.meta, "family": spec.to_dict()})
 
 

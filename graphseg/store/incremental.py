@@ -4,9 +4,11 @@ A store keeps, per view, what depends on that view alone (:class:`ViewData`:
 its points, background, composed masks and node table) and, per stage, the
 graph it built last time (:class:`Snapshot`). :func:`update` then builds the
 same stage graphs as :func:`graphseg.method.segment.segment` would on all the
-views, with the same functions (``coarsen``, ``run_contractor``,
-``apply_min_support``, the criteria), except that a criterion whose edges are
-*local* is run only where something changed:
+views, with the same functions (:func:`~graphseg.method.segment.run_stages`
+for edge addition and contraction, and
+:func:`~graphseg.method.segment.finish_segmentation` from the partition to the
+objects), except that a criterion whose edges are *local* is run only where
+something changed:
 
 ``pixel_match`` (absolute ``tau``, ``area`` or ``pair_hits`` normalisation) on the mask graph
     Its edges between two masks come from the matches of their two views
@@ -51,18 +53,17 @@ from typing import Any
 import numpy as np
 
 from ..config import Config, CriterionSpec
-from ..graphs import (
-    CorrespondenceGraph,
-    Evidence,
-    canonical_cluster,
-    coarsen,
-    mask_node_table,
-    node_point_sets,
-    run_contractor,
+from ..graphs import CorrespondenceGraph, Evidence, mask_node_table
+from ..method.masks import compose_masks
+from ..method.segment import (
+    StageEdges,
+    criterion_edges,
+    evidence_fields,
+    finish_segmentation,
+    finite_points,
+    run_stages,
+    view_masks,
 )
-from ..method.masks import compose_masks, paint_masks
-from ..method.refine import refine_labels
-from ..method.segment import apply_min_support
 from ..published import TAU_3D_PAPER
 from ..result import Result
 from ..scene import Matches, SceneError, View
@@ -142,33 +143,12 @@ class Update:
 
 
 def _stack(masks: Any, view: View) -> np.ndarray:
-    """One view's masks as a label image or a bool stack (checked)."""
-    h, w = view.shape
+    """One view's masks as a label image or a bool stack (checked by :func:`view_masks`)."""
+    checked = view_masks(masks, view)
     if isinstance(masks, np.ndarray):
-        if masks.ndim == 2 and masks.shape == (h, w) and masks.dtype.kind in "iu":
-            return masks
-        if masks.ndim == 3 and masks.shape[1:] == (h, w) and masks.dtype == bool:
-            return masks
-        raise SceneError(f"expected an int label image [{h}, {w}] or a bool stack [K, {h}, {w}] (got {masks.dtype} {list(masks.shape)})", where=view.name, field="masks")
-    if not isinstance(masks, (list, tuple)):
-        raise SceneError(f"expected a list of bool masks [{h}, {w}], a bool stack or a label image (got {type(masks).__name__})", where=view.name, field="masks")
-    out = []
-    for k, m in enumerate(masks):
-        a = np.asarray(m)
-        if a.shape != (h, w) or a.dtype.kind not in "biu":
-            raise SceneError(f"expected a bool mask [{h}, {w}] (got {a.dtype} {list(a.shape)})", where=view.name, field=f"masks[{k}]")
-        out.append(a.astype(bool))
-    return np.stack(out) if out else np.zeros((0, h, w), bool)
-
-
-def _finite(points: np.ndarray) -> np.ndarray:
-    p = np.asarray(points)
-    fin = np.isfinite(p)
-    if fin.all():
-        return p
-    p = p.astype(np.float32, copy=True)
-    p[~(fin[..., 0] & fin[..., 1] & fin[..., 2])] = np.nan
-    return p
+        return masks  # a label image or a bool stack, as given
+    out = [np.asarray(a).astype(bool) for a in checked]
+    return np.stack(out) if out else np.zeros((0, *view.shape), bool)
 
 
 def prepare_view(view: View, masks: Any, config: Config, *, uid: int, features: np.ndarray | None = None) -> ViewData:
@@ -201,7 +181,7 @@ def prepare_view(view: View, masks: Any, config: Config, *, uid: int, features: 
         raise SceneError("no 3D point map; run a lifter first", where=view.name, field="points")
     view.validate()
     stack = _stack(masks, view)
-    points = _finite(np.asarray(view.points))
+    points = finite_points(np.asarray(view.points))
     center = view.camera_center if view.cam_to_world is not None else None
     bg, bg_info = view_background(points, center, config.background, seed=config.seed)
     m: Any = list(stack) if stack.ndim == 3 else stack
@@ -265,28 +245,13 @@ def local_rule(spec: CriterionSpec, stage: int) -> str | None:
     return None
 
 
-def _evidence_fields(config: Config, views: Sequence[ViewData], matches: Mapping[tuple[int, int], Matches], points: list[np.ndarray], labels: list[np.ndarray]) -> dict[str, Any]:
-    """The evidence the configured criteria require, as :func:`segment` builds it."""
+def _evidence_fields(config: Config, views: Sequence[ViewData], matches: Mapping[tuple[int, int], Matches], points: list[np.ndarray], labels: list[np.ndarray], name: str) -> dict[str, Any]:
+    """The evidence the configured criteria require, as :func:`segment` builds it (:func:`evidence_fields`)."""
     required = config.requires()
-    out: dict[str, Any] = {}
-    if "matches" in required:
-        out["matches"] = matches
-    if "points" in required:
-        out["points"] = points
-    if "features" in required:
-        if any(v.features is None for v in views):
-            raise ValueError("a configured criterion requires features, and a view of the store has none")
-        out["features"] = [v.features for v in views]
-    if "rgb" in required:
-        out["rgb"] = [v.view.rgb for v in views]
-    if "cameras" in required:
-        out["cameras"] = [(v.view.K, v.view.cam_to_world) for v in views]
-    if "confidence" in required:
-        out["confidence"] = [v.view.confidence for v in views]
-    if "masks" in required:
-        out["masks"] = labels
-    out["normal_cache"] = {}
-    return out
+    if "features" in required and any(v.features is None for v in views):
+        raise ValueError("a configured criterion requires features, and a view of the store has none")
+    features = [v.features for v in views] if "features" in required else None
+    return evidence_fields(required, [v.view for v in views], matches=matches, points=points, features=features, labels=labels, name=name)
 
 
 def _old_rows(prev: CorrespondenceGraph | None, stage: int, name: str) -> np.ndarray:
@@ -337,13 +302,14 @@ def _criterion_edges(
     known_views: set[int],
     changed_pairs: set[tuple[int, int]],
     view_uids: np.ndarray,
-) -> tuple[list[tuple[np.ndarray, dict[str, np.ndarray]]], dict[str, Any]]:
+) -> StageEdges:
     """The edges of one criterion on one stage graph, reusing the last snapshot's where they are local."""
     rule = local_rule(spec, stage) if prev is not None and prev_keys is not None else None
-    criterion = spec.build()
     if rule is None:
-        es = criterion(graph, evidence)
-        return [(es.edge_index, dict(es.edge_attr))], {"edges": es.num_edges, "computed": es.num_edges, "reused": 0, **{k: v for k, v in es.info.items() if np.isscalar(v)}}
+        whole, info = criterion_edges(spec, stage, graph, evidence)
+        n = int(whole[0][0].shape[1])
+        return whole, {"edges": n, "computed": n, "reused": 0, **info}
+    criterion = spec.build()
     assert prev is not None and prev_keys is not None
     where = {k: i for i, k in enumerate(keys)}
     rows = _old_rows(prev, stage, spec.name)
@@ -482,97 +448,34 @@ def update(
     table = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else mask_node_table([])
     graph = CorrespondenceGraph(len(table["view"]), node_attr=table, masks=labels, meta={"scene": name})
     mask_uid = (uids[graph.node_attr["view"]] << MASK_BITS) | graph.node_attr["mask_id"] if graph.num_nodes else np.zeros(0, np.int64)
-    shared = _evidence_fields(cfg, views, matches, points, labels)
+    shared = _evidence_fields(cfg, views, matches, points, labels, name)
     changed = set(changed_pairs or set())
     known = set(previous.view_uids.tolist()) if previous is not None else set()
-    contractor = cfg.contractor.build()
-    edge_reduce = cfg.edge_reduce()
-    stage_graphs: list[CorrespondenceGraph] = []
-    stage_info: list[dict[str, Any]] = []
     recomputed: dict[str, Any] = {}
-    current = graph
-    for s, stage in enumerate(cfg.stages):
-        t = time.perf_counter()
-        evidence = Evidence.for_graph(current, **shared)
-        with_edges = current.copy()
-        info_s: dict[str, Any] = {"stage": s, "nodes": current.num_nodes, "adders": {}}
-        prev = previous.graphs[s] if previous is not None and s < len(previous.graphs) else None
-        keys = node_keys(current, uids)
-        prev_keys = node_keys(prev, previous.view_uids) if prev is not None and previous is not None else None
-        names = [spec.name for spec in stage]
-        for spec in stage:
-            unique = names.count(spec.name) == 1
-            edge_parts, adder = _criterion_edges(spec, s, current, evidence, keys, prev if unique else None, prev_keys if unique else None, known, changed, uids)
-            for ei, attrs in edge_parts:
-                n = ei.shape[1]
-                attrs = dict(attrs)
-                attrs["stage"] = np.full(n, s, np.int64)
-                attrs.setdefault("criterion", np.full(n, spec.name))
-                with_edges.add_edges(ei, attrs, in_place=True)
-            info_s["adders"][spec.name] = adder
-            recomputed[f"stage{s}/{spec.name}"] = {"reused": adder["reused"], "computed": adder["computed"]}
-        cluster = run_contractor(contractor, with_edges.edge_index, with_edges.num_nodes, edge_attr=with_edges.edge_attr, node_attr=with_edges.node_attr, rng=gen)
-        with_edges.meta["stage"] = s
-        stage_graphs.append(with_edges)
-        current = coarsen(with_edges, cluster, edge_reduce=edge_reduce)
-        info_s["components"] = current.num_nodes
-        info_s["seconds"] = time.perf_counter() - t
-        stage_info.append(info_s)
-        timings[f"stage{s}"] = info_s["seconds"]
+    keys_of: dict[int, tuple[CorrespondenceGraph | None, list[bytes], list[bytes] | None]] = {}
 
-    t = time.perf_counter()
-    mem = current.members
-    obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
-    out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
-    pixels = views[0].view.shape[0] * views[0].view.shape[1] if views else 0
-    min_points = int(np.ceil(cfg.objects.min_point_fraction * pixels))
-    cameras = [(v.view.K, v.view.cam_to_world) for v in views]
-    foreground = [np.isfinite(p[..., 0]) & ~v.background for p, v in zip(points, views)]
-    obj, out_labels, support = apply_min_support(
-        obj,
-        out_labels,
+    def edges(spec: CriterionSpec, s: int, current: CorrespondenceGraph, evidence: Evidence) -> StageEdges:
+        if s not in keys_of:  # the node identities of this stage's graph and of the last update's
+            prev = previous.graphs[s] if previous is not None and s < len(previous.graphs) else None
+            prev_keys = node_keys(prev, previous.view_uids) if prev is not None and previous is not None else None
+            keys_of[s] = (prev, node_keys(current, uids), prev_keys)
+        prev, keys, prev_keys = keys_of[s]
+        unique = [sp.name for sp in cfg.stages[s]].count(spec.name) == 1
+        edge_parts, adder = _criterion_edges(spec, s, current, evidence, keys, prev if unique else None, prev_keys if unique else None, known, changed, uids)
+        recomputed[f"stage{s}/{spec.name}"] = {"reused": adder["reused"], "computed": adder["computed"]}
+        return edge_parts, adder
+
+    current, stage_graphs, stage_info = run_stages(graph, cfg, shared, rng=gen, edges=edges)
+    timings.update({f"stage{i['stage']}": i["seconds"] for i in stage_info})
+
+    result = finish_segmentation(
+        [v.view for v in views],
+        current,
+        stage_graphs,
+        labels,
         points,
-        cfg.objects.min_views,
-        min_points,
-        cameras=cameras,
-        foreground=foreground,
-        min_confirm=int(np.ceil(cfg.objects.confirm_fraction * pixels)),
-        mask_view=mem["view"],
-        merge=cfg.objects.merge_seen,
-    )
-    num_objects = int(obj.max()) if obj.size else 0
-    refine_info = None
-    if cfg.refine.enabled:
-        r = cfg.refine
-        out_labels, refine_info = refine_labels(
-            out_labels, points, cameras, confidence=[v.view.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
-        )
-    for g in stage_graphs:
-        col = np.zeros(g.num_nodes, np.int64)
-        col[g.members["node"]] = obj
-        g.node_attr["object"] = col
-    clouds = node_point_sets(
-        [lab.astype(np.int64) - 1 for lab in out_labels], points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.view.rgb for v in views]
-    )
-    timings["outputs"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
-    warnings = []
-    if len(views) == 1:
-        warnings.append("only one view: no cross-view evidence, every mask is its own object")
-    if graph.num_nodes == 0:
-        warnings.append("no usable masks (every mask was empty, background, or below masks.min_area): 0 objects")
-    elif num_objects == 0:
-        warnings.append("0 objects found")
-    result = Result(
-        labels=out_labels,
-        mask_view=mem["view"].copy(),
-        mask_id=mem["mask_id"].copy(),
-        mask_object=obj.astype(np.int64),
-        object_points=clouds,
-        graphs=stage_graphs,
-        config=cfg,
-        view_names=[v.name for v in views],
-        background=[v.background for v in views],
+        [v.background for v in views],
+        cfg,
         info={
             "background": _background_info(views),
             "masks": [v.info.get("compose") for v in views],
@@ -580,10 +483,8 @@ def update(
             "timings": timings,
             "num_matches": int(sum(len(m) for m in matches.values())) if num_matches is None else int(num_matches),
             "pairs": [list(p) for p in matches],
-            "support": support,
-            "refine": refine_info,
-            "warnings": warnings,
         },
+        start=t0,
     )
     return Update(result, Snapshot(stage_graphs, uids.copy(), []), mask_uid, recomputed)
 

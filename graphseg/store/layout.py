@@ -52,6 +52,7 @@ from typing import Any
 
 import numpy as np
 
+from ..result import jsonable
 from ..scene import Matches, SceneError, View
 
 __all__ = [
@@ -138,20 +139,12 @@ def sync_dirs(root: str | os.PathLike[str]) -> None:
 
 def write_json(path: Path, doc: Any) -> None:
     """:func:`write_file` of one JSON document."""
-    text = json.dumps(doc, indent=1, default=_jsonable)
+    text = json.dumps(doc, indent=1, default=jsonable)
 
     def put(tmp: Path) -> None:
         tmp.write_text(text, encoding="utf-8")
 
     write_file(path, put)
-
-
-def _jsonable(x: Any) -> Any:
-    if isinstance(x, np.generic):
-        return x.item()
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    return str(x)
 
 
 def _savez(path: Path, arrays: Mapping[str, np.ndarray], *, level: int = 1) -> None:
@@ -200,7 +193,7 @@ def _header(arrays: dict[str, np.ndarray], path: Path) -> dict[str, Any]:
 
 
 def _header_array(doc: Mapping[str, Any]) -> np.ndarray:
-    return np.frombuffer(json.dumps(doc, default=_jsonable).encode(), dtype=np.uint8)
+    return np.frombuffer(json.dumps(doc, default=jsonable).encode(), dtype=np.uint8)
 
 
 # ----------------------------------------------------------------------------- the folder
@@ -498,18 +491,6 @@ def read_pairs(root: str | os.PathLike[str], rel: str) -> dict[str, Matches]:
 
 
 # ----------------------------------------------------------------------------- cleaning up
-def _pid_alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    return True
-
-
 _OURS = re.compile(r"^(V\d{6}\.npz|M\d{6}\.npz|\d{6}\.(state\.json|result\.npz))$")
 _TEMP = re.compile(r"^(.+)" + re.escape(_TMP) + r"(\d+)(\.npz)?$")
 
@@ -522,6 +503,8 @@ def collect_garbage(root: str | os.PathLike[str], keep: set[str]) -> list[str]:
     temporary files of dead processes are removed; anything else in the
     folder is left alone.
     """
+    from ..output import pid_alive
+
     r = Path(root)
     removed = []
     for sub in ("views", "pairs", "generations"):
@@ -533,7 +516,7 @@ def collect_garbage(root: str | os.PathLike[str], keep: set[str]) -> list[str]:
             if f.is_symlink() or not f.is_file():
                 continue
             m = _TEMP.match(f.name)
-            if m and not _pid_alive(int(m.group(2))):
+            if m and not pid_alive(int(m.group(2))):
                 f.unlink(missing_ok=True)
                 removed.append(rel)
             elif _OURS.match(f.name) and rel not in keep:

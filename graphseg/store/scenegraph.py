@@ -507,7 +507,7 @@ class SceneGraph:
     def _add(self, items: Any, *, segmenter: Any, matcher: Any, lifter: Any, features: Any, masks: Sequence[Any] | None, select: dict[str, Any], progress: bool) -> AddReport:
         from ..job import resolve_backends
         from ..method.pairs import scene_scale, select_pairs
-        from ..pipeline import _progress, lift
+        from ..pipeline import lift, progress_bar
 
         t0 = time.perf_counter()
         timings: dict[str, float] = {}
@@ -591,7 +591,7 @@ class SceneGraph:
             feats = resolve_backend("features", features or cfg_l.backends.features, cfg_l)
         next_uid = int(state["next_uid"])
         prepared: dict[str, ViewData] = {}
-        for v, m in _progress(list(zip(todo, todo_masks)), "segment", progress):
+        for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", progress):
             mk = m if m is not None else backends["segmenter"](v)
             prepared[v.name] = prepare_view(v, mk, cfg_l, uid=next_uid, features=None if feats is None else np.asarray(feats(v)))
             next_uid += 1
@@ -625,7 +625,7 @@ class SceneGraph:
                 else:
                     todo_pairs.append((a, b, key))
                 active.append(key)
-            for a, b, key in _progress(todo_pairs, "match", progress):
+            for a, b, key in progress_bar(todo_pairs, "match", progress):
                 new_pairs[key] = backends["matcher"](all_data[a].view, all_data[b].view)
                 matched.append((all_data[a].name, all_data[b].name))
             index = {d.uid: i for i, d in enumerate(all_data)}
