@@ -45,6 +45,7 @@ __all__ = [
     "evaluate_output",
     "evaluate_scene",
     "resolve_backends",
+    "backends_for_lifter",
     "estimate_peak_memory",
     "available_memory",
     "check_memory",
@@ -134,6 +135,34 @@ def resolve_backends(
                 raise
             raise _options_error(kind, spec if isinstance(spec, str) else type(spec).__name__, err) from err
     out.setdefault("lifter", None)
+    return out
+
+
+def backends_for_lifter(backends: dict[str, Any], config: Config, lifter: str | None, *, segmenter: Any = None, matcher: Any = None) -> dict[str, Any]:
+    """``backends`` with the segmenter and matcher rebuilt for points ``lifter`` estimated.
+
+    :attr:`LiftedConfig.backend_options <graphseg.config.LiftedConfig>` applies to
+    backends chosen by name (``segmenter`` / ``matcher`` None or a string); an
+    instance the caller built is kept as it is. Returns ``backends`` itself when
+    nothing changes; a backend whose options do not change is not rebuilt.
+
+    Examples
+    --------
+    >>> cfg = Config.preset("rgbd")
+    >>> b = resolve_backends(cfg, need_lifter=False)
+    >>> backends_for_lifter(b, cfg, "sfm")["matcher"].options.max_color_distance, b["matcher"].options.max_color_distance
+    (30.0, None)
+    >>> backends_for_lifter(b, cfg, "rgbd")["segmenter"] is b["segmenter"]
+    True
+    """
+    from .pipeline import resolve_backend
+
+    cfg_l = config.for_lifter(lifter)
+    out = dict(backends)
+    for kind, given in (("segmenter", segmenter), ("matcher", matcher)):
+        name = given or getattr(config.backends, kind)
+        if isinstance(name, str) and cfg_l.backends.options.get(name) != config.backends.options.get(name):  # only what changes is rebuilt
+            out[kind] = resolve_backend(kind, name, cfg_l)
     return out
 
 
@@ -303,6 +332,7 @@ def run_job(
         info["dropped_views"] = list(scene.meta["dropped_views"])
     timings["lift"] = time.perf_counter() - t
     t = time.perf_counter()
+    backends = backends_for_lifter(backends, cfg, scene.meta.get("lifter"), segmenter=segmenter, matcher=matcher)
     result = run(scene, cfg, segmenter=backends["segmenter"], matcher=backends["matcher"], progress=progress)
     timings["run"] = time.perf_counter() - t
     t = time.perf_counter()

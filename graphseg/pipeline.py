@@ -239,6 +239,7 @@ def prepare(
     else:
         scene = lift(scene, lifter, cfg)
     times["lift"] = time.perf_counter() - t
+    cfg = cfg.for_lifter(scene.meta.get("lifter"))  # backend options for estimated points (LiftedConfig.backend_options)
     t = time.perf_counter()
     masks = _given_masks(scene, masks) if masks is not None else compute_masks(scene, segmenter, cfg, progress=progress)
     times["segment"] = time.perf_counter() - t

@@ -242,7 +242,7 @@ def test_lifted_points_get_their_own_criterion_options():
     assert sfm.objects == cfg.objects  # no object overrides by default
     three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
     assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
-    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}})
+    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "backend_options": {}})
     assert off.for_lifter("sfm") is off
     with pytest.raises(ValidationError, match="merge_sen"):
         Config(lifted={"objects": {"merge_sen": True}})
@@ -250,6 +250,19 @@ def test_lifted_points_get_their_own_criterion_options():
         Config(lifted={"criteria": {"chamfer_3d": {"fragment_ration": 0.5}}})
     with pytest.raises(ValidationError, match="nope"):
         Config(lifted={"criteria": {"nope": {}}})
+
+
+def test_lifted_points_get_their_own_backend_options():
+    """Issue 20: the matcher runs with a colour test on estimated points only; the user's
+    own options for that backend are kept underneath, and nothing is mutated."""
+    cfg = Config.preset("rgbd", backends={"options": {"reprojection": {"stride": 2}, "geometric": {"min_area": 10}}})
+    sfm = cfg.for_lifter("sfm")
+    assert sfm.backends.options["reprojection"] == {"stride": 2, "max_color_distance": 30.0}
+    assert sfm.backends.options["geometric"] == {"min_area": 10}
+    assert cfg.backends.options["reprojection"] == {"stride": 2}  # not mutated
+    assert cfg.for_lifter("rgbd") is cfg
+    mine = Config.preset("rgbd", lifted={"backend_options": {"reprojection": {"max_color_distance": 12.0, "color_blur": 0.0}}})
+    assert mine.for_lifter("dust3r").backends.options["reprojection"] == {"max_color_distance": 12.0, "color_blur": 0.0}
 
 
 def test_method_becomes_stages_and_contractor_when_the_config_is_built():

@@ -116,3 +116,30 @@ def test_estimated_points_run_with_the_lifted_options():
     assert r.config.criterion_options("chamfer_3d")["fragment_ratio"] == 0.5 and r.num_objects == 2
     plain = run(scene, Config.preset("rgbd"))
     assert plain.config.criterion_options("chamfer_3d")["fragment_ratio"] is None
+
+
+def test_estimated_points_are_matched_with_the_colour_test():
+    """Issue 20: prepare() builds the matcher with config.lifted.backend_options for estimated
+    points: on a pair whose second image is recoloured on one box, the reprojection matches
+    landing there are dropped for 'sfm' points and kept for measured depth; run_job does the same."""
+    import numpy as np
+
+    from graphseg.job import backends_for_lifter, resolve_backends
+    from graphseg.pipeline import prepare
+
+    scene = box_scene(TWO_BOXES, views=2)
+    v1 = scene.views[1]
+    rgb = v1.rgb.copy()
+    rgb[v1.instances == 1] = (250, 20, 200)  # one box recoloured in view 1 only
+    views = [scene.views[0], v1.replace(rgb=rgb)]
+    cfg = Config.preset("rgbd", backends={"num_matches": None})
+    measured = prepare(Scene(views, scene.objects, scene.name, {**scene.meta, "lifter": "rgbd"}), cfg)[2][(0, 1)]
+    estimated = prepare(Scene(views, scene.objects, scene.name, {**scene.meta, "lifter": "sfm"}), cfg)[2][(0, 1)]
+    lands = v1.instances[np.rint(measured.xy_j[:, 1]).astype(int), np.rint(measured.xy_j[:, 0]).astype(int)]
+    assert (lands == 1).sum() > 100
+    lands_est = v1.instances[np.rint(estimated.xy_j[:, 1]).astype(int), np.rint(estimated.xy_j[:, 0]).astype(int)]
+    assert (lands_est == 1).sum() == 0 and len(estimated) >= 0.9 * (lands != 1).sum()
+    named = resolve_backends(cfg, need_lifter=False)
+    assert backends_for_lifter(named, cfg, "sfm")["matcher"].options.max_color_distance == 30.0
+    mine = resolve_backends(cfg, matcher=named["matcher"], need_lifter=False)  # an instance the caller built is kept
+    assert backends_for_lifter(mine, cfg, "sfm", matcher=named["matcher"])["matcher"] is named["matcher"]

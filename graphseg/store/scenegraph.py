@@ -505,7 +505,7 @@ class SceneGraph:
             return self._add(views, segmenter=segmenter, matcher=matcher, lifter=lifter, features=features, masks=masks, select=select or {}, progress=progress)
 
     def _add(self, items: Any, *, segmenter: Any, matcher: Any, lifter: Any, features: Any, masks: Sequence[Any] | None, select: dict[str, Any], progress: bool) -> AddReport:
-        from ..job import resolve_backends
+        from ..job import backends_for_lifter, resolve_backends
         from ..method.pairs import scene_scale, select_pairs
         from ..pipeline import lift, progress_bar
 
@@ -576,6 +576,7 @@ class SceneGraph:
             lifted = [got[v.name] for v in new_views]
         timings["lift"] = time.perf_counter() - t
         cfg_l = cfg.for_lifter(lifter_name)
+        backends = backends_for_lifter(backends, cfg, lifter_name, segmenter=segmenter, matcher=matcher)
 
         # -- segment and prepare the new (and replaced) views
         t = time.perf_counter()

@@ -89,7 +89,7 @@ def test_built_from_options_or_keywords_alike():
     b = ReprojectionMatcher(stride=2, seed=4)
     c = ReprojectionMatcher({"stride": 2, "seed": 4})
     assert a.options == b.options == c.options
-    assert repr(b) == "ReprojectionMatcher(Options(num_matches=10000, seed=4, abs_tol=0.005, rel_tol=0.01, stride=2))"
+    assert repr(b) == "ReprojectionMatcher(Options(num_matches=10000, seed=4, abs_tol=0.005, rel_tol=0.01, stride=2, max_color_distance=None, color_blur=2.0))"
     with pytest.raises(TypeError, match="either as an Options instance or as keywords, not both"):
         ReprojectionMatcher(ReprojectionMatcher.Options(), seed=1)
     with pytest.raises(TypeError, match="expected Options options \\(got Options\\)"):
@@ -115,7 +115,9 @@ def test_the_defaults_are_the_former_constructor_defaults():
         "seed": 0, "edges": None, "hed_weights": None,
     }  # fmt: skip
     assert OraclePartsSegmenter.Options().model_dump() == {"parts": 2, "seed": 0}
-    assert ReprojectionMatcher.Options().model_dump() == {"num_matches": 10_000, "seed": 0, "abs_tol": 0.005, "rel_tol": 0.01, "stride": 1}
+    assert ReprojectionMatcher.Options().model_dump() == {
+        "num_matches": 10_000, "seed": 0, "abs_tol": 0.005, "rel_tol": 0.01, "stride": 1, "max_color_distance": None, "color_blur": 2.0,
+    }  # fmt: skip
     assert FlowMatcher.Options().model_dump() == {"num_matches": 10_000, "seed": 0, "max_fb_error": 1.0, "stride": 2}
     assert SiftMatcher.Options().model_dump() == {"num_matches": 10_000, "seed": 0, "ratio": 0.8, "ransac_threshold": 1.5}
     assert PrecomputedMatcher.Options().model_dump() == {"folder": None, "missing": "empty", "num_matches": None}
@@ -128,7 +130,7 @@ def test_the_defaults_are_the_former_constructor_defaults():
 
 #: (backend class, pure function it wraps, function parameters that are its options)
 PURE = [
-    (ReprojectionMatcher, reprojection_matches, ("abs_tol", "rel_tol", "stride")),
+    (ReprojectionMatcher, reprojection_matches, ("abs_tol", "rel_tol", "stride", "max_color_distance", "color_blur")),
     (FlowMatcher, flow_matches, ("max_fb_error", "stride")),
     (SiftMatcher, sift_matches, ("ratio", "ransac_threshold")),
     (GeometricSegmenter, geometric_segments, tuple(GeometricOptions.model_fields)),

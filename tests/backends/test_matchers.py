@@ -36,7 +36,7 @@ def test_reprojection_99_percent_within_one_pixel():
 
 def test_reprojection_occlusion_and_errors():
     scene = box_scene(TWO_BOXES, views=2, shape=(60, 80), arc_deg=170)  # wide baseline: parts occluded
-    tol = {"abs_tol": 0.005, "rel_tol": 0.01, "stride": 1}  # ReprojectionMatcher.Options' defaults
+    tol = {"abs_tol": 0.005, "rel_tol": 0.01, "stride": 1, "max_color_distance": None, "color_blur": 2.0}  # ReprojectionMatcher.Options' defaults
     full = reprojection_matches(scene[0], scene[1], **tol)
     valid = np.isfinite(scene[0].points).all(-1).sum()
     assert 0 < len(full) < valid  # occluded / out-of-view pixels are not matched
@@ -72,3 +72,30 @@ def test_flow_and_sift_on_textured_pair():
     if len(s):
         assert np.median(s.xy_j[:, 0] - s.xy_i[:, 0]) == pytest.approx(3.0, abs=0.5)
     assert matchers.resolve("sift").name == "sift"
+
+
+def test_reprojection_color_test_drops_matches_on_another_surface():
+    """Hand-made pair: view j sees the same plane, but its right half is painted another colour.
+
+    With true geometry every pixel matches itself; the colour test keeps exactly the
+    pixels whose colours agree (left half), and None keeps them all.
+    """
+    from graphseg.scene import View, backproject
+
+    K = np.array([[50.0, 0, 16], [0, 50, 12], [0, 0, 1]])
+    T = np.eye(4)
+    depth = np.full((24, 32), 2.0, np.float32)
+    rgb_i = np.full((24, 32, 3), 120, np.uint8)
+    rgb_j = rgb_i.copy()
+    rgb_j[:, 16:] = (200, 30, 30)  # Lab distance from grey 120: ~90
+    vi = View("i", rgb_i, depth=depth, points=backproject(depth, K, T), K=K, cam_to_world=T)
+    vj = vi.replace(name="j", rgb=rgb_j)
+    kw = {"abs_tol": 0.005, "rel_tol": 0.01, "stride": 1, "color_blur": 0.0}
+    assert len(reprojection_matches(vi, vj, max_color_distance=None, **kw)) == 24 * 32
+    m = reprojection_matches(vi, vj, max_color_distance=30.0, **kw)
+    assert len(m) == 24 * 16 and m.xy_i[:, 0].max() == 15
+    # a blur mixes the colours near the edge: those pixels drop out as well, nothing else does
+    b = reprojection_matches(vi, vj, max_color_distance=30.0, **{**kw, "color_blur": 2.0})
+    assert 0 < len(b) < len(m) and set(b.xy_i[:, 0].tolist()) <= set(range(16))
+    with pytest.raises(ValueError, match="max_color_distance"):
+        ReprojectionMatcher(max_color_distance=0)

@@ -26,6 +26,7 @@ import numpy as np
 from pydantic import Field
 
 from ...scene import Matches, SceneError, View
+from ..imaging import view_rgb
 from ..options import Backend
 from .sampling import MatcherOptions, subsample_matches
 
@@ -39,6 +40,8 @@ def reprojection_matches(
     abs_tol: float,
     rel_tol: float,
     stride: int,
+    max_color_distance: float | None,
+    color_blur: float,
     mask_i: np.ndarray | None = None,
 ) -> Matches:
     """Dense matches by projecting view i's world points into view j.
@@ -54,6 +57,14 @@ def reprojection_matches(
         A projected point is visible when ``|z_proj - depth_j| <= abs_tol + rel_tol * z_proj``.
     stride : int
         Use every ``stride``-th pixel of view i.
+    max_color_distance : float, optional
+        Photometric consistency: drop a match whose two pixels differ by more
+        than this CIE Lab distance after a Gaussian blur of ``color_blur``
+        pixels (None: no colour test). Estimated point maps (structure from
+        motion) put some pixels on the wrong surface, and their reprojections
+        land on another object; the colour test removes most of those.
+    color_blur : float
+        Sigma of the blur before the colour test, in pixels (0: none).
     mask_i : bool ``[H, W]``, optional
         Only pixels of view i where this holds.
 
@@ -95,12 +106,31 @@ def reprojection_matches(
     tol = abs_tol + rel_tol * z
     dz = np.abs(z - dj)
     vis = np.isfinite(dj) & (dz <= tol)
+    if max_color_distance is not None:
+        vis[vis] = _color_distance(view_i, view_j, ys[vis], xs[vis], vi[vis], ui[vis], color_blur) <= max_color_distance
     cert = 1.0 - dz[vis] / tol[vis]
     return Matches(
         np.stack([xs[vis], ys[vis]], 1).astype(np.float32),
         np.stack([u[vis], v[vis]], 1).astype(np.float32),
         np.clip(cert, 1e-3, 1.0).astype(np.float32),
     )
+
+
+def _lab(rgb: np.ndarray, blur: float) -> np.ndarray:
+    """CIE Lab float32 ``[H, W, 3]`` of a uint8 RGB image (OpenCV's 8-bit scaling: L in 0-255), blurred first."""
+    import cv2
+
+    im = np.ascontiguousarray(rgb[..., :3], dtype=np.uint8)
+    if blur > 0:
+        im = cv2.GaussianBlur(im, (0, 0), blur)
+    return cv2.cvtColor(im, cv2.COLOR_RGB2LAB).astype(np.float32)
+
+
+def _color_distance(view_i: View, view_j: View, yi: np.ndarray, xi: np.ndarray, yj: np.ndarray, xj: np.ndarray, blur: float) -> np.ndarray:
+    """Lab distance ``[M]`` between pixels ``(yi, xi)`` of view i and ``(yj, xj)`` of view j."""
+    a = _lab(view_rgb(view_i), blur)[yi, xi]
+    b = _lab(view_rgb(view_j), blur)[yj, xj]
+    return np.linalg.norm(a - b, axis=1)
 
 
 class ReprojectionMatcher(Backend):
@@ -112,8 +142,12 @@ class ReprojectionMatcher(Backend):
         abs_tol: float = Field(0.005, ge=0, description="metres")
         rel_tol: float = Field(0.01, ge=0, description="fraction of the projected depth")
         stride: int = Field(1, ge=1, description="use every stride-th pixel of view i")
+        max_color_distance: float | None = Field(None, gt=0, description="CIE Lab distance above which a match is dropped (None: no colour test)")
+        color_blur: float = Field(2.0, ge=0, description="pixels of Gaussian blur before the colour test")
 
     def __call__(self, view_i: View, view_j: View) -> Matches:
         o = self.options
-        m = reprojection_matches(view_i, view_j, abs_tol=o.abs_tol, rel_tol=o.rel_tol, stride=o.stride)
+        m = reprojection_matches(
+            view_i, view_j, abs_tol=o.abs_tol, rel_tol=o.rel_tol, stride=o.stride, max_color_distance=o.max_color_distance, color_blur=o.color_blur
+        )
         return subsample_matches(m, o.num_matches, rng=o.seed)
