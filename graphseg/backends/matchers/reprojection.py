@@ -120,10 +120,10 @@ def _lab(rgb: np.ndarray, blur: float) -> np.ndarray:
     """CIE Lab float32 ``[H, W, 3]`` of a uint8 RGB image (OpenCV's 8-bit scaling: L in 0-255), blurred first."""
     import cv2
 
-    im = np.ascontiguousarray(rgb[..., :3], dtype=np.uint8)
+    im: np.ndarray = np.ascontiguousarray(rgb[..., :3], dtype=np.uint8)
     if blur > 0:
-        im = cv2.GaussianBlur(im, (0, 0), blur)
-    return cv2.cvtColor(im, cv2.COLOR_RGB2LAB).astype(np.float32)
+        im = np.asarray(cv2.GaussianBlur(im, (0, 0), blur))
+    return np.asarray(cv2.cvtColor(im, cv2.COLOR_RGB2LAB), np.float32)
 
 
 def _color_distance(view_i: View, view_j: View, yi: np.ndarray, xi: np.ndarray, yj: np.ndarray, xj: np.ndarray, blur: float) -> np.ndarray:
