@@ -81,7 +81,7 @@ def resolve_backend(kind: str, spec: Any, config: Config | None = None) -> Any:
     >>> resolve_backend("matcher", "reprojection", Config(backends={"options": {"reprojection": {"strid": 2}}}))
     Traceback (most recent call last):
     ...
-    graphseg.scene.SceneError: backends.options.reprojection.strid: unknown option 'strid'; valid keys: num_matches, seed, abs_tol, rel_tol, stride; did you mean 'stride'?
+    graphseg.scene.SceneError: backends.options.reprojection.strid: unknown option 'strid'; valid keys: num_matches, seed, abs_tol, rel_tol, stride, max_color_distance, color_blur; did you mean 'stride'?
     """
     cfg = config or Config()
     return _resolve(backend_registry(kind), spec, cfg, _run_settings(kind, cfg))
