@@ -138,11 +138,12 @@ class LiftedConfig(_Model):
     rule lowered YCB-Video 0001 at 3 and 5 views; ``docs/results.md``).
     ``objects`` goes on top of :class:`ObjectConfig` the same way (empty by default).
     ``preset`` (None by default) replaces the stages and the contractor with
-    those of a preset before ``criteria`` apply. ``backend_options`` goes on top
-    of ``backends.options`` for the segmenter and matcher that run on the
-    estimated points. The default gives the ``reprojection`` matcher a colour
-    test (``max_color_distance`` 30, CIE Lab): estimated points put some pixels
-    on the wrong surface, and their reprojections land on another object.
+    those of a preset before ``criteria`` apply. ``backend_options`` gives the
+    segmenter and matcher that run on the estimated points their defaults; an
+    option set in ``backends.options`` (or with ``--backend-option``) still
+    wins. The default gives the ``reprojection`` matcher a colour test
+    (``max_color_distance`` 30, CIE Lab): estimated points put some pixels on
+    the wrong surface, and their reprojections land on another object.
     Chosen on the tuning half of ``bench_rgb_only.py`` (mean IoU 0.665 -> 0.679;
     20 gave the same, 45 gave 0.666; ``docs/results.md``).
     """
@@ -154,7 +155,7 @@ class LiftedConfig(_Model):
     )
     objects: dict[str, Any] = Field(default_factory=dict, description="ObjectConfig fields applied on top of the objects section")
     backend_options: dict[str, dict[str, Any]] = Field(
-        default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options applied on top of backends.options"
+        default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options for estimated points (backends.options still wins)"
     )
 
     @field_validator("objects")
@@ -539,7 +540,7 @@ class Config(_Model):
         over = lf.criteria
         stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in base.stages]
         objects = ObjectConfig.model_validate({**self.objects.model_dump(), **lf.objects})
-        options = {**self.backends.options, **{k: {**self.backends.options.get(k, {}), **v} for k, v in lf.backend_options.items()}}
+        options = {**self.backends.options, **{k: {**v, **self.backends.options.get(k, {})} for k, v in lf.backend_options.items()}}
         return base.model_copy(
             update={
                 "stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages],

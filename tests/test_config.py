@@ -254,7 +254,7 @@ def test_lifted_points_get_their_own_criterion_options():
 
 def test_lifted_points_get_their_own_backend_options():
     """Issue 20: the matcher runs with a colour test on estimated points only; the user's
-    own options for that backend are kept underneath, and nothing is mutated."""
+    own options for that backend are kept and win, and nothing is mutated."""
     cfg = Config.preset("rgbd", backends={"options": {"reprojection": {"stride": 2}, "geometric": {"min_area": 10}}})
     sfm = cfg.for_lifter("sfm")
     assert sfm.backends.options["reprojection"] == {"stride": 2, "max_color_distance": 30.0}
@@ -263,6 +263,8 @@ def test_lifted_points_get_their_own_backend_options():
     assert cfg.for_lifter("rgbd") is cfg
     mine = Config.preset("rgbd", lifted={"backend_options": {"reprojection": {"max_color_distance": 12.0, "color_blur": 0.0}}})
     assert mine.for_lifter("dust3r").backends.options["reprojection"] == {"max_color_distance": 12.0, "color_blur": 0.0}
+    off = Config.preset("rgbd", backends={"options": {"reprojection": {"max_color_distance": None}}})  # e.g. --backend-option
+    assert off.for_lifter("sfm").backends.options["reprojection"] == {"max_color_distance": None}
 
 
 def test_method_becomes_stages_and_contractor_when_the_config_is_built():
