@@ -167,6 +167,10 @@ def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path,
     assert run["dropped_views"] == ["blank"] and run["views"] == [v.name for v in arc_scene.views]
     assert f"in {len(arc_scene)} views" in cap.out
     assert main(["eval", str(tmp_path / "out"), "--quiet"]) == 0  # the evaluation follows the registered views
+    from graphseg.result import Result
+
+    recorded = Result.load(tmp_path / "out" / "result.npz").config
+    assert recorded.backends.options["reprojection"]["max_color_distance"] == 30.0  # the colour test of estimated points ran
 
 
 def test_lifter_keeps_registered_views_only(arc_scene):
