@@ -57,6 +57,18 @@ def _scene(name: str) -> Any:
     return lift(synthesize(seed=0, objects=6, views=20, size=(640, 480)), None, cfg)
 
 
+def _warm_copy(base: Path, dst: Path) -> Any:
+    """A copy of the store ``base`` at ``dst``, opened with every view and the result in memory (a robot's loop)."""
+    shutil.copytree(base, dst)
+    from graphseg import SceneGraph
+
+    sg = SceneGraph.open(dst, create=False)
+    for n in sg.view_names:
+        sg.view_data(n)
+    sg.result()
+    return sg
+
+
 def _partition(result: Any) -> tuple[set[frozenset[tuple[str, int]]], frozenset[tuple[str, int]]]:
     groups: dict[int, set[tuple[str, int]]] = {}
     for v, m, o in zip(result.mask_view.tolist(), result.mask_id.tolist(), result.mask_object.tolist()):
@@ -117,12 +129,7 @@ def bench(name: str, trace: bool) -> dict[str, Any]:
         print(f"store: 19 adds in {sum(per_add):.1f} s", flush=True)
 
         # warm: the store open in this process, its views in memory (a robot's loop)
-        warm_dir = work / "warm"
-        shutil.copytree(base, warm_dir)
-        warm = SceneGraph.open(warm_dir, create=False)
-        for n in warm.view_names:
-            warm.view_data(n)
-        warm.result()
+        warm = _warm_copy(base, work / "warm")
         t = time.perf_counter()
         report = warm.add(views[-1])
         t_warm = time.perf_counter() - t
@@ -137,12 +144,7 @@ def bench(name: str, trace: bool) -> dict[str, Any]:
             mem_dir = work / "mem"
             shutil.copytree(base, mem_dir)
             mem_cold = peak_traced_mb(lambda: SceneGraph.open(mem_dir, create=False).add(views[-1]))
-            warm_mem = work / "warm-mem"
-            shutil.copytree(base, warm_mem)
-            wm = SceneGraph.open(warm_mem, create=False)
-            for n in wm.view_names:
-                wm.view_data(n)
-            wm.result()
+            wm = _warm_copy(base, work / "warm-mem")
             mem_add[20] = peak_traced_mb(lambda: wm.add(views[-1]))
         print(f"20th view: warm {t_warm:.2f} s ({100 * t_warm / t_batch:.1f} % of the batch), cold {t_cold:.2f} s ({100 * t_cold / t_batch:.1f} %)", flush=True)
 
@@ -151,7 +153,7 @@ def bench(name: str, trace: bool) -> dict[str, Any]:
         same_global = _partition(store_result) == _partition(batch)
         m_store = evaluate_scene(store_result, warm.scene())
         m_batch = evaluate_scene(batch, scene)
-        disk = sum(f.stat().st_size for f in warm_dir.rglob("*") if f.is_file())
+        disk = sum(f.stat().st_size for f in warm.root.rglob("*") if f.is_file())
     finally:
         shutil.rmtree(work, ignore_errors=True)
 

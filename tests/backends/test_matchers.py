@@ -99,3 +99,20 @@ def test_reprojection_color_test_drops_matches_on_another_surface():
     assert 0 < len(b) < len(m) and set(b.xy_i[:, 0].tolist()) <= set(range(16))
     with pytest.raises(ValueError, match="max_color_distance"):
         ReprojectionMatcher(max_color_distance=0)
+
+
+def test_reprojection_matcher_converts_each_image_once(monkeypatch):
+    """Each view is in several pairs: its Lab image is made once, and the matches equal the pure function's."""
+    import graphseg.backends.matchers.reprojection as rp
+
+    scene = box_scene(TWO_BOXES, views=3, shape=(60, 80), arc_deg=40)
+    calls = []
+    real = rp.lab_image
+    monkeypatch.setattr(rp, "lab_image", lambda v, blur: calls.append(v.name) or real(v, blur))
+    m = ReprojectionMatcher(num_matches=None, max_color_distance=30.0)
+    got = [m(scene[i], scene[j]) for i, j in ((0, 1), (0, 2), (1, 2))]
+    assert sorted(calls) == sorted(v.name for v in scene.views)
+    m(scene[0].replace(rgb=scene[0].rgb.copy()), scene[1])  # a new image under the same name is converted again
+    assert calls[3:] == [scene[0].name]
+    ref = reprojection_matches(scene[0], scene[2], abs_tol=0.005, rel_tol=0.01, stride=1, max_color_distance=30.0, color_blur=2.0)
+    assert np.array_equal(got[1].xy_i, ref.xy_i) and np.array_equal(got[1].xy_j, ref.xy_j) and len(ref) > 0

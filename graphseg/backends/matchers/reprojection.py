@@ -22,6 +22,8 @@ Examples
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from pydantic import Field
 
@@ -30,7 +32,7 @@ from ..imaging import view_rgb
 from ..options import Backend
 from .sampling import MatcherOptions, subsample_matches
 
-__all__ = ["reprojection_matches", "ReprojectionMatcher"]
+__all__ = ["reprojection_matches", "lab_image", "ReprojectionMatcher"]
 
 
 def reprojection_matches(
@@ -43,6 +45,7 @@ def reprojection_matches(
     max_color_distance: float | None,
     color_blur: float,
     mask_i: np.ndarray | None = None,
+    lab: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> Matches:
     """Dense matches by projecting view i's world points into view j.
 
@@ -67,6 +70,9 @@ def reprojection_matches(
         Sigma of the blur before the colour test, in pixels (0: none).
     mask_i : bool ``[H, W]``, optional
         Only pixels of view i where this holds.
+    lab : (uint8 ``[H, W, 3]``, uint8 ``[H, W, 3]``), optional
+        Both views' blurred Lab images (:func:`lab_image`), when the caller
+        already has them; computed here otherwise.
 
     Returns
     -------
@@ -107,7 +113,10 @@ def reprojection_matches(
     dz = np.abs(z - dj)
     vis = np.isfinite(dj) & (dz <= tol)
     if max_color_distance is not None:
-        vis[vis] = _color_distance(view_i, view_j, ys[vis], xs[vis], vi[vis], ui[vis], color_blur) <= max_color_distance
+        lab_i, lab_j = lab if lab is not None else (lab_image(view_i, color_blur), lab_image(view_j, color_blur))
+        a = lab_i[ys[vis], xs[vis]].astype(np.float32)
+        b = lab_j[vi[vis], ui[vis]].astype(np.float32)
+        vis[vis] = np.linalg.norm(a - b, axis=1) <= max_color_distance
     cert = 1.0 - dz[vis] / tol[vis]
     return Matches(
         np.stack([xs[vis], ys[vis]], 1).astype(np.float32),
@@ -116,21 +125,14 @@ def reprojection_matches(
     )
 
 
-def _lab(rgb: np.ndarray, blur: float) -> np.ndarray:
-    """CIE Lab float32 ``[H, W, 3]`` of a uint8 RGB image (OpenCV's 8-bit scaling: L in 0-255), blurred first."""
+def lab_image(view: View, blur: float) -> np.ndarray:
+    """The view's image in CIE Lab, uint8 ``[H, W, 3]`` (OpenCV's 8-bit scaling), after a Gaussian blur of ``blur`` pixels (0: none). O(H W)."""
     import cv2
 
-    im: np.ndarray = np.ascontiguousarray(rgb[..., :3], dtype=np.uint8)
+    im: np.ndarray = np.ascontiguousarray(view_rgb(view), dtype=np.uint8)
     if blur > 0:
         im = np.asarray(cv2.GaussianBlur(im, (0, 0), blur))
-    return np.asarray(cv2.cvtColor(im, cv2.COLOR_RGB2LAB), np.float32)
-
-
-def _color_distance(view_i: View, view_j: View, yi: np.ndarray, xi: np.ndarray, yj: np.ndarray, xj: np.ndarray, blur: float) -> np.ndarray:
-    """Lab distance ``[M]`` between pixels ``(yi, xi)`` of view i and ``(yj, xj)`` of view j."""
-    a = _lab(view_rgb(view_i), blur)[yi, xi]
-    b = _lab(view_rgb(view_j), blur)[yj, xj]
-    return np.linalg.norm(a - b, axis=1)
+    return np.asarray(cv2.cvtColor(im, cv2.COLOR_RGB2LAB))
 
 
 class ReprojectionMatcher(Backend):
@@ -145,9 +147,25 @@ class ReprojectionMatcher(Backend):
         max_color_distance: float | None = Field(None, gt=0, description="CIE Lab distance above which a match is dropped (None: no colour test)")
         color_blur: float = Field(2.0, ge=0, description="pixels of Gaussian blur before the colour test")
 
+    def __init__(self, options: Any = None, /, **kwargs: Any) -> None:
+        super().__init__(options, **kwargs)
+        self._lab_cache: dict[str, tuple[Any, np.ndarray]] = {}  # view name -> (its rgb array, lab_image)
+
     def __call__(self, view_i: View, view_j: View) -> Matches:
         o = self.options
+        lab = None if o.max_color_distance is None else (self._lab(view_i), self._lab(view_j))
         m = reprojection_matches(
-            view_i, view_j, abs_tol=o.abs_tol, rel_tol=o.rel_tol, stride=o.stride, max_color_distance=o.max_color_distance, color_blur=o.color_blur
+            view_i, view_j, abs_tol=o.abs_tol, rel_tol=o.rel_tol, stride=o.stride, max_color_distance=o.max_color_distance, color_blur=o.color_blur, lab=lab
         )
         return subsample_matches(m, o.num_matches, rng=o.seed)
+
+    def _lab(self, view: View) -> np.ndarray:
+        """:func:`lab_image` once per view image: each view is in several pairs (cache keyed by name, checked by identity, up to 64 views)."""
+        cache = self._lab_cache
+        hit = cache.get(view.name)
+        if hit is not None and hit[0] is view.rgb:
+            return hit[1]
+        if len(cache) >= 64:
+            cache.pop(next(iter(cache)))
+        out = cache[view.name] = (view.rgb, lab_image(view, self.options.color_blur))
+        return out[1]
