@@ -27,7 +27,7 @@ computed once per scene and segmenter and shared by every row.
 Metrics (``graphseg.metrics.evaluate``): mean IoU, F1, IoU_sel, precision,
 pixel utility, averaged over scenes.
 
-Usage: python benchmarks/bench_ablation.py [--quick] [--cache DIR] [--only GROUP ...] [--json PATH]
+Usage: python benchmarks/bench_ablation.py [--quick] [--cache DIR] [--only GROUP ...] [--variants PREFIX ...] [--json PATH]
        python benchmarks/bench_ablation.py --merge A.json B.json --json benchmarks/results/ablation.json
 """
 
@@ -98,6 +98,9 @@ def variants() -> dict[str, Config]:
         "robust preset, gaec, fragments (< 300 px) join one cluster": _variant(Config.preset("robust"), contractor={"gaec": {"fragment_area": 300.0}}),
         "robust preset + per-pixel refinement": _variant(Config.preset("robust"), refine={"enabled": True}),
         "robust preset, gaec, smooth_adjacency without its colour test": Config.preset("multicut"),
+        "GraphSeg [rgbd] + 3D split of objects (normalized cut)": _variant(base, split={"enabled": True}),
+        "robust preset + 3D split of objects": _variant(Config.preset("robust"), split={"enabled": True}),
+        "multicut preset + 3D split of objects": _variant(Config.preset("multicut"), split={"enabled": True}),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),
         "view_consensus for pixel_match": _variant(base, stages=[["view_consensus"], *stages[1:]]),
@@ -169,6 +172,7 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="fewer synthetic scenes")
     ap.add_argument("--cache", help="folder for the per-scene inputs (pickles), reused across runs")
     ap.add_argument("--only", nargs="*", help="run only these groups (prefix match)")
+    ap.add_argument("--variants", nargs="*", help="run only these variants (prefix match)")
     ap.add_argument("--json", default="benchmarks/results/ablation.json")
     ap.add_argument("--merge", nargs="*", help="only merge these JSON files (rows and per-scene lists) into --json and print the markdown tables")
     args = ap.parse_args(argv)
@@ -179,7 +183,7 @@ def main(argv=None):
         print(markdown(merged["rows"]))
         return
     cache = Path(args.cache) if args.cache else None
-    var = variants()
+    var = {k: v for k, v in variants().items() if not args.variants or any(k.startswith(p) for p in args.variants)}
     acc: dict[tuple[str, str], list[dict]] = {}
     per_scene = []
     t0 = time.perf_counter()

@@ -75,11 +75,20 @@ def _robust(contractor: object = "constrained", **update) -> Config:
     return Config.model_validate({**Config.preset("robust").to_dict(), "contractor": contractor, **update})
 
 
+def _without_split(name: str, **split) -> Config:
+    """Preset ``name`` with the 3D split of objects switched off (or with other split options)."""
+    return Config.model_validate({**Config.preset(name).to_dict(), "split": split or {"enabled": False}})
+
+
 def variants() -> dict[str, Config]:
-    """Rows: the presets, then one change each to ``robust`` (issue 21's items)."""
+    """Rows: the presets, each also without the 3D split of objects, then one change each to ``robust`` (issue 21's items)."""
     return {
         "rgbd": Config.preset("rgbd"),
+        "rgbd without split": _without_split("rgbd"),
+        "rgbd, split with mask guard 0.8 / 0.5": _without_split("rgbd", enabled=True, own_fraction=0.8, own_cover=0.5),
         "robust": Config.preset("robust"),
+        "robust without split": _without_split("robust"),
+        "multicut without split": _without_split("multicut"),
         "robust + refine": _robust(refine={"enabled": True}),
         "robust, gaec": _robust("gaec"),
         "robust, gaec repulsion 2": _robust({"gaec": {"repulsion": 2.0}}),

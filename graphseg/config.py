@@ -82,6 +82,8 @@ __all__ = [
     "ContractorSpec",
     "migrate_config",
     "OutputConfig",
+    "RefineConfig",
+    "SplitConfig",
     "BackendConfig",
     "PRESETS",
     "DEFAULT_PRESET",
@@ -203,6 +205,28 @@ class RefineConfig(_Model):
     tolerance: float = Field(0.02, gt=0, description="relative depth agreement for another view to see a pixel's point")
     self_weight: float = Field(1.0, ge=0, description="weight of a pixel's own label against the other views' votes")
     min_views: int = Field(2, ge=1, description="other views that must vote for a new object")
+
+
+class SplitConfig(_Model):
+    """3D split of objects after contraction (:func:`graphseg.method.split.split_objects`).
+
+    Each object's points from every view are fused into voxels; neighbouring
+    voxels are linked, weakly across concave creases, and the graph is cut in
+    two by normalized cut while the best cut costs less than ``max_ncut``.
+    Touching objects whose masks were joined come apart; every pixel follows
+    its voxel. Chosen on the tune halves of ``bench_ycb_views.py``
+    (``docs/results.md``).
+    """
+
+    enabled: bool = Field(False, description="split objects whose fused 3D points fall into parts joined by a cheap normalized cut")
+    voxel_size: float = Field(0.006, gt=0, description="voxel edge (metres); voxels up to 3 edges apart are linked")
+    max_ncut: float = Field(0.012, ge=0, description="cut while the best normalized cut of a part is below this")
+    min_voxels: int = Field(200, ge=1, description="voxels every part keeps at least")
+    concave_weight: float = Field(0.1, ge=0, le=1, description="weight of a link across a concave crease (others weigh 1)")
+    concave_angle: float = Field(10.0, ge=0, le=180, description="degrees; links between normals closer than this are never concave")
+    concave_margin: float = Field(0.05, ge=0, description="a link is concave when (n_a - n_b) . unit(x_a - x_b) < -concave_margin")
+    own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
+    own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
 
 
 class OutputConfig(_Model):
@@ -414,6 +438,7 @@ class Config(_Model):
     background: BackgroundConfig = Field(default_factory=BackgroundConfig)
     masks: MaskConfig = Field(default_factory=MaskConfig)
     objects: ObjectConfig = Field(default_factory=ObjectConfig)
+    split: SplitConfig = Field(default_factory=SplitConfig)
     refine: RefineConfig = Field(default_factory=RefineConfig)
     lifted: LiftedConfig = Field(default_factory=LiftedConfig)
     pairs: PairConfig = Field(default_factory=PairConfig)

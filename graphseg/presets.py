@@ -27,6 +27,7 @@ PRESETS: dict[str, dict[str, Any]] = {
             [{"chamfer_3d": {"tau": TAU_3D_OFFICIAL}}],
         ],
         "background": {"max_overlap": 0.5},
+        "split": {"enabled": True},
     },
     # rgbd plus the robust contraction of issue 12 (measured in docs/results.md, "Robust contraction")
     "robust": {
@@ -43,6 +44,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         ],
         "contractor": "constrained",
         "background": {"max_overlap": 0.5},
+        "split": {"enabled": True},
     },
     # robust with greedy additive edge contraction and smooth_adjacency without its colour test
     # (issue 21; chosen on the tune half of bench_ycb_views.py, measured in docs/results.md)
@@ -60,6 +62,7 @@ PRESETS: dict[str, dict[str, Any]] = {
         ],
         "contractor": "gaec",
         "background": {"max_overlap": 0.5},
+        "split": {"enabled": True},
     },
 }
 

@@ -1,10 +1,11 @@
-"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), per-pixel refinement."""
+"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, per-pixel refinement."""
 
 from .background import BackgroundInfo, background_masks, fit_table_plane
 from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
 from .refine import project_to_view, refine_labels
 from .segment import segment
+from .split import split_objects
 
 __all__ = [
     "fit_table_plane",
@@ -15,6 +16,7 @@ __all__ = [
     "scene_scale",
     "pose_distance",
     "segment",
+    "split_objects",
     "refine_labels",
     "project_to_view",
 ]

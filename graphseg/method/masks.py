@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["compose_masks", "paint_masks"]
+__all__ = ["compose_masks", "paint_masks", "majority_objects"]
 
 
 def compose_masks(
@@ -178,4 +178,53 @@ def paint_masks(masks: Sequence[np.ndarray], mask_view: np.ndarray, mask_id: np.
         keep = ids < lut.size
         lut[ids[keep]] = np.asarray(values)[sel][keep]
         out.append(lut[lab])
+    return out
+
+
+def majority_objects(masks: Sequence[np.ndarray], labels: Sequence[np.ndarray], mask_view: np.ndarray, mask_id: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The object that holds most of each mask's pixels in relabelled images (the inverse of :func:`paint_masks`).
+
+    Parameters
+    ----------
+    masks : list of int ``[H, W]``
+        Composed mask images, ``mask_id + 1`` (0 = none).
+    labels : list of int ``[H, W]``
+        Object ids per view (0 = none), e.g. after a per-pixel split.
+    mask_view, mask_id : int ``[M]``
+        View and id of every mask.
+    values : int ``[M]``
+        Each mask's current object; kept where the mask has no labelled pixel,
+        and where it is 0 (a mask below the minimum support stays dropped).
+
+    Returns
+    -------
+    int64 ``[M]``
+        A new array.
+
+    Notes
+    -----
+    O(total pixels): one joint histogram per view.
+
+    Examples
+    --------
+    >>> m = [np.array([[1, 1, 1, 2, 2]])]
+    >>> lab = [np.array([[3, 3, 4, 4, 4]])]
+    >>> majority_objects(m, lab, np.array([0, 0]), np.array([0, 1]), np.array([3, 0])).tolist()
+    [3, 0]
+    """
+    out = np.asarray(values, np.int64).copy()
+    view = np.asarray(mask_view)
+    ids = np.asarray(mask_id)
+    for v, (mk, lab) in enumerate(zip(masks, labels)):
+        mk = np.asarray(mk).ravel().astype(np.int64)
+        lab = np.asarray(lab).ravel().astype(np.int64)
+        keep = (mk > 0) & (lab > 0)
+        if not keep.any():
+            continue
+        cols = int(lab.max()) + 1
+        hist = np.bincount(mk[keep] * cols + lab[keep], minlength=(int(mk.max()) + 1) * cols).reshape(-1, cols)
+        sel = np.flatnonzero((view == v) & (out > 0) & (ids + 1 < hist.shape[0]))
+        rows = hist[ids[sel] + 1]
+        has = rows.sum(1) > 0
+        out[sel[has]] = rows[has].argmax(1)
     return out

@@ -43,8 +43,9 @@ from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
-from .masks import compose_masks, paint_masks
+from .masks import compose_masks, majority_objects, paint_masks
 from .refine import project_to_view, refine_labels
+from .split import split_objects
 
 __all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -938,6 +939,29 @@ def finish_segmentation(
         merge=cfg.objects.merge_seen,
     )
     num_objects = int(obj.max()) if obj.size else 0
+    split_info = None
+    if cfg.split.enabled:
+        t_split = time.perf_counter()
+        sp = cfg.split
+        out_labels, split_info = split_objects(
+            out_labels,
+            points,
+            cameras,
+            voxel_size=sp.voxel_size,
+            max_ncut=sp.max_ncut,
+            min_voxels=sp.min_voxels,
+            concave_weight=sp.concave_weight,
+            concave_angle=sp.concave_angle,
+            concave_margin=sp.concave_margin,
+            masks=labels if sp.own_fraction is not None else None,
+            own_fraction=sp.own_fraction or 0.0,
+            own_cover=sp.own_cover,
+            rng=cfg.seed,
+        )
+        if split_info["num_objects"] > num_objects:
+            obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
+            num_objects = split_info["num_objects"]
+        timings["split"] = time.perf_counter() - t_split
     refine_info = None
     if cfg.refine.enabled:
         t_refine = time.perf_counter()
@@ -969,6 +993,7 @@ def finish_segmentation(
             **head,
             "timings": timings,
             "support": support,
+            "split": split_info,
             "refine": refine_info,
             "warnings": _degenerate_warnings(len(views), int(mem["node"].size), num_objects),
         },

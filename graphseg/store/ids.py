@@ -49,6 +49,7 @@ def assign_ids(
     new_uid: np.ndarray,
     new_obj: np.ndarray,
     next_pid: int,
+    num_objects: int | None = None,
 ) -> tuple[np.ndarray, list[dict[str, Any]], int]:
     """Persistent ids for the objects of an update.
 
@@ -60,6 +61,10 @@ def assign_ids(
         Every base mask of this update and its object (``1..K``, 0 = none).
     next_pid : int
         The first id never given out.
+    num_objects : int, optional
+        Objects of this update, when some hold no base mask (the 3D split,
+        ``config.split``, can give a part none): such an object gets a new id.
+        Default: the largest of ``new_obj``.
 
     Returns
     -------
@@ -79,7 +84,7 @@ def assign_ids(
     old_pid = np.asarray(old_pid, np.int64)
     new_uid = np.asarray(new_uid, np.int64)
     new_obj = np.asarray(new_obj, np.int64)
-    k = int(new_obj.max()) if new_obj.size else 0
+    k = max(int(new_obj.max()) if new_obj.size else 0, int(num_objects or 0))
     order = np.argsort(old_uid, kind="stable")
     pos = np.clip(np.searchsorted(old_uid[order], new_uid), 0, max(old_uid.size - 1, 0))
     had = old_uid.size > 0

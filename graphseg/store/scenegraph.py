@@ -656,7 +656,7 @@ class SceneGraph:
         res = up.result
         old_uid = np.asarray(state["mask_uid"], np.int64)
         old_pid = np.asarray(state["mask_pid"], np.int64)
-        pid, events, next_pid = assign_ids(old_uid, old_pid, up.mask_uid, res.mask_object, int(state["next_pid"]))
+        pid, events, next_pid = assign_ids(old_uid, old_pid, up.mask_uid, res.mask_object, int(state["next_pid"]), res.num_objects)
         rank = np.zeros(pid.size, np.int64)
         order_k = np.argsort(pid[1:], kind="stable") + 1
         rank[order_k] = np.arange(1, pid.size)

@@ -80,6 +80,7 @@ def _config(path, radius_key="radius", radius=1.0):
         "  - [{pixel_match: {normalization: pair_hits, tau: 0.3, min_matches: 5}}]\n"
         "  - [{chamfer_3d: {tau: 5.0e-5}}]\n"
         f"  - [{{centroid_radius: {{{radius_key}: {radius}}}}}]\n"
+        "split: {enabled: false}\n"  # the 3D split would part the two boxes the third stage joins: they do not touch
     )
     return path
 

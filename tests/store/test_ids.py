@@ -35,6 +35,13 @@ def test_merge_split_and_dropped():
     assert {"event": "dropped", "id": 2} not in events  # merged, not dropped
 
 
+def test_an_object_without_masks_gets_a_new_id():
+    # the 3D split can leave a part with no mask of its own: objects 1..3, masks only on 1 and 2
+    pid, events, nxt = assign_ids(np.array([1, 2]), np.array([4, 6]), np.array([1, 2]), np.array([1, 2]), 7, num_objects=3)
+    assert pid.tolist() == [0, 4, 6, 7] and nxt == 8 and events == [{"event": "new", "id": 7}]
+    assert assign_ids(np.array([1]), np.array([4]), np.array([1]), np.array([1]), 5, num_objects=0)[0].tolist() == [0, 4]
+
+
 def test_a_tie_keeps_the_smaller_id():
     pid, events, _ = assign_ids(np.array([1, 2]), np.array([4, 2]), np.array([1, 2]), np.array([1, 1]), 5)
     assert pid.tolist() == [0, 2] and events == [{"event": "merge", "id": 2, "ids": [2, 4]}]

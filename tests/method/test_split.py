@@ -1,0 +1,160 @@
+import numpy as np
+import pytest
+from scipy.sparse import csr_matrix
+
+from graphseg.config import Config
+from graphseg.method import segment
+from graphseg.method.masks import majority_objects
+from graphseg.method.split import convexity_graph, normalized_cut, split_objects, voxelize
+from graphseg.metrics import evaluate
+from graphseg.sim.boxes import Box
+from graphseg.testing.scenes import box_scene, exact_matches
+
+EYE = np.array([[1.0, 0, 0, 0.05], [0, 1, 0, 0], [0, 0, 1, 0.8], [0, 0, 0, 1]])  # a camera 0.8 m above the table
+
+
+def dome(cx, r=0.05, step=0.003):
+    """The upper half of a sphere of radius r at (cx, 0, 0), sampled on a grid seen from above."""
+    g = np.arange(-r, r + 1e-9, step)
+    x, y = np.meshgrid(g, g)
+    k = x**2 + y**2 <= r * r
+    return np.c_[cx + x[k], y[k], np.sqrt(r * r - x[k] ** 2 - y[k] ** 2)]
+
+
+def test_voxelize_shapes_means_and_edge_cases():
+    pts = np.array([[0.0, 0, 0], [0.004, 0.002, 0], [0.011, 0, 0], [-0.001, 0, 0]])
+    c, inv, n = voxelize(pts, 0.01)
+    assert c.shape == (3, 3) and inv.shape == (4,) and n.tolist() == [1, 2, 1]
+    assert inv.tolist() == [1, 1, 2, 0]  # -0.001 falls in the voxel below 0
+    assert np.allclose(c[1], [0.002, 0.001, 0]) and np.allclose(c[2], [0.011, 0, 0])
+    c, inv, n = voxelize(np.zeros((0, 3)), 0.01)
+    assert c.shape == (0, 3) and inv.size == n.size == 0
+    with pytest.raises(ValueError, match=r"shape \[N, 3\] \(got \[4, 2\]\)"):
+        voxelize(pts[:, :2], 0.01)
+    with pytest.raises(ValueError, match="voxel_size > 0"):
+        voxelize(pts, 0.0)
+
+
+def fold(sign):
+    """Two 45-degree faces meeting along the y axis: a valley (sign -1) or a ridge (+1), seen from above."""
+    g = np.arange(-0.05, 0.05 + 1e-9, 0.005)
+    x, y = np.meshgrid(g, g)
+    return np.c_[x.ravel(), y.ravel(), sign * -np.abs(x.ravel())]
+
+
+def test_convexity_graph_weakens_links_across_a_concave_crease_only():
+    for sign, expected in ((-1, 0.1), (1, 1.0)):  # valley: concave; ridge: convex
+        X = fold(sign)
+        W = convexity_graph(X, np.tile([0.0, 0, 1.0], (len(X), 1)), radius=0.0115, normal_neighbors=5, concave_weight=0.1)
+        assert W.shape == (len(X), len(X)) and (W != W.T).nnz == 0
+        a, b = W.nonzero()
+        across = (X[a, 0] < -0.004) & (X[b, 0] > 0.004)  # links from one face to the other (5 neighbours fit each face's own plane)
+        assert across.any() and np.allclose(np.asarray(W[a[across], b[across]]).ravel(), expected)
+        flat = (X[a, 0] < -0.02) & (X[b, 0] < -0.02)
+        assert np.allclose(np.asarray(W[a[flat], b[flat]]).ravel(), 1.0)  # inside one face: always full
+
+
+def test_convexity_graph_edge_cases():
+    assert convexity_graph(np.zeros((1, 3)), np.ones((1, 3)), radius=0.1).shape == (1, 1)
+    far = np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0, 0]])
+    assert convexity_graph(far, np.tile([0, 0, 1.0], (3, 1)), radius=0.5, normal_neighbors=3).nnz == 0  # nothing within reach
+
+
+def test_normalized_cut_two_cliques_by_hand():
+    A = np.ones((4, 4)) - np.eye(4)
+    W = np.kron(np.eye(2), A)
+    W[3, 4] = W[4, 3] = 0.1
+    side, nc = normalized_cut(csr_matrix(W), min_size=2, rng=0)
+    assert side.shape == (8,) and {int(side[:4].sum()), int(side[4:].sum())} == {0, 4}
+    vol = 12 + 0.1  # each clique: 4 nodes of degree 3, plus the link
+    assert nc == pytest.approx(0.1 / vol * 2)
+    side, nc = normalized_cut(csr_matrix(W), min_size=5, rng=0)  # no cut leaves 5 on both sides
+    assert not side.any() and nc == float("inf")
+    W[0] = W[:, 0] = 0  # an isolated node: not a connected graph
+    assert normalized_cut(csr_matrix(W), rng=0)[1] == float("inf")
+
+
+def test_split_objects_two_domes_in_two_views():
+    two = np.r_[dome(0.0), dome(0.1)]
+    lab = np.ones((1, len(two)), np.int32)
+    lab2 = np.full((1, len(two)), 5, np.int32)  # another object id in view 1 (ids may have gaps)
+    lab2[0, :10] = 0
+    views = [lab, np.r_[lab2]]
+    out, info = split_objects([lab, np.where(lab2 == 5, 1, 0).astype(np.int32)], [two[None], two[None]], [(None, EYE)] * 2, rng=0)
+    assert [o.shape for o in out] == [(1, len(two))] * 2 and info["num_objects"] == 2
+    n = len(dome(0.0))
+    for o in out:  # both views: the same two ids, one per dome (the cut may wander by a voxel or two at the contact)
+        assert np.mean(o[0, 10:n] == 1) > 0.97 and np.mean(o[0, n:] == 2) > 0.97
+    assert np.array_equal(out[0][0, 10:], out[1][0, 10:])
+    assert out[1][0, :10].tolist() == [0] * 10
+    assert views[0].max() == 1  # inputs untouched
+    again, _ = split_objects([lab, np.where(lab2 == 5, 1, 0).astype(np.int32)], [two[None], two[None]], [(None, EYE)] * 2, rng=0)
+    assert all(np.array_equal(a, b) for a, b in zip(out, again))
+
+
+def test_split_objects_keeps_one_body_and_skips_views_without_a_camera():
+    one = dome(0.0)
+    lab = np.ones((1, len(one)), np.int32)
+    out, info = split_objects([lab], [one[None]], [(None, EYE)], rng=0)
+    assert out[0].tolist() == lab.tolist() and info["objects"][0]["parts"] == 1
+    two = np.r_[dome(0.0), dome(0.1)]
+    lab = np.ones((1, len(two)), np.int32)
+    out, info = split_objects([lab], [two[None]], [(None, None)], rng=0)  # no camera: nothing to orient normals by
+    assert out[0].tolist() == lab.tolist() and info == {"objects": [], "num_objects": 1}
+    nan = np.full((1, 4, 3), np.nan)
+    out, info = split_objects([np.ones((1, 4), np.int32)], [nan], [(None, EYE)])  # no points
+    assert out[0].tolist() == [[1, 1, 1, 1]] and info["objects"] == []
+    with pytest.raises(ValueError, match="same views"):
+        split_objects([lab], [], [])
+
+
+def test_majority_objects():
+    masks = [np.array([[1, 1, 1, 2, 2, 3]]), np.array([[1, 1]])]
+    labels = [np.array([[4, 4, 7, 7, 7, 0]]), np.array([[0, 0]])]
+    view, mid = np.array([0, 0, 0, 1]), np.array([0, 1, 2, 0])
+    out = majority_objects(masks, labels, view, mid, np.array([4, 0, 4, 4]))
+    assert out.tolist() == [4, 0, 4, 4]  # mask 1 stays dropped; masks without labelled pixels keep theirs
+    assert majority_objects(masks, labels, view, mid, np.array([4, 4, 4, 4])).tolist() == [4, 7, 4, 4]
+
+
+TOUCHING = (  # two boxes side by side, touching along x = 0; the front faces are 2 cm apart (coplanar ones would not split)
+    Box((-0.05, 0.0, 0.05), (0.10, 0.10, 0.10), yaw=0.0, color=(200, 60, 60)),
+    Box((0.045, 0.03, 0.035), (0.09, 0.12, 0.07), yaw=0.0, color=(60, 90, 200)),
+)
+
+
+def test_segment_with_split_separates_touching_boxes_joined_by_straddling_masks():
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances > 0] for v in scene.views]  # one mask over both boxes in every view
+    matches = exact_matches(scene)
+    gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
+    rgbd = Config.preset("rgbd").to_dict()
+    assert rgbd["split"]["enabled"] and not Config().split.enabled  # on in the presets, off in the paper's method
+    plain = segment(scene, masks, matches, Config.model_validate({**rgbd, "split": {"enabled": False}}))
+    assert plain.num_objects == 1
+    guarded = segment(scene, masks, matches, Config.model_validate({**rgbd, "split": {"enabled": True, "own_fraction": 0.8}}))
+    assert guarded.num_objects == 1  # no mask lies in one box only: with the mask guard the cut is undone
+    res = segment(scene, masks, matches, Config.preset("rgbd"))
+    m = evaluate(res.labels, gt, pts)
+    assert res.num_objects == 2 and m["mean"]["iou"] > 0.95, m["mean"]
+    assert "split" in res.info["timings"] and [e["parts"] for e in res.info["split"]["objects"]] == [2]
+    assert res.mask_object.tolist() == [1, 1, 1]  # each straddling mask keeps the object with most of its pixels
+    assert sorted(np.unique(res.graphs[-1].node_attr["object"]).tolist()) == [1]
+
+
+def test_the_mask_guard_keeps_only_parts_that_masks_of_their_own_cover():
+    two = np.r_[dome(0.0), dome(0.1)]
+    n = len(dome(0.0))
+    lab = [np.ones((1, len(two)), np.int32)]
+    own = np.where(np.arange(len(two)) < n, 1, 2)[None]  # one mask per dome
+    across = np.ones((1, len(two)), np.int32)  # one mask over both
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[own], own_fraction=0.8, rng=0)
+    assert np.unique(out[0]).tolist() == [1, 2]
+    out, info = split_objects(lab, [two[None]], [(None, EYE)], masks=[across], own_fraction=0.8, rng=0)
+    assert np.unique(out[0]).tolist() == [1] and info["objects"][0]["parts"] == 1
+    idx = np.arange(len(two))
+    half = np.where(idx < n // 3, 1, np.where(idx < n + n // 4, 3, 2))[None]  # mask 3 straddles: dome 0 is one third its own
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[half], own_fraction=0.8, own_cover=0.5, rng=0)
+    assert np.unique(out[0]).tolist() == [1]
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[half], own_fraction=0.8, own_cover=0.3, rng=0)
+    assert np.unique(out[0]).tolist() == [1, 2]
