@@ -5,7 +5,7 @@ skipped when absent) and one synthetic pybullet scene (seed 103, 10 views,
 640x480; skipped without the ``sim`` extra). The inputs (``rgbd`` lift,
 ``geometric`` masks, ``reprojection`` matches) are computed once per scene;
 only ``segment()`` is timed, best of ``--repeat`` runs, with its own step
-timings (background, mask composition, each stage, outputs) from the best run.
+timings (background, mask composition, each stage, split, outputs) from the best run.
 Peak memory is tracemalloc's peak over one more run (numpy included; the
 inputs themselves are not counted). IoU is printed as a check (the YCB rows are
 the scenes of ``bench_ablation.py``'s 10-view rows). Run it on an idle machine:
@@ -15,7 +15,9 @@ Writes the table as Markdown next to the JSON (same name, ``.md``).
 
 Besides the presets, ``--presets`` takes the variants of :data:`VARIANTS`
 (issue 21: ``"robust + refine"``, per-pixel refinement after contraction;
-``"robust, gaec"``, greedy additive edge contraction).
+``"robust, gaec"``, greedy additive edge contraction; ``"rgbd without split"``
+and ``"robust without split"``, the presets without their 3D split of objects,
+whose time is the ``split`` column).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
@@ -37,12 +39,14 @@ from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
-STEPS = ("background", "compose", "stage0", "stage1", "refine", "outputs")
+STEPS = ("background", "compose", "stage0", "stage1", "split", "refine", "outputs")
 
 #: Named configurations other than the presets.
 VARIANTS = {
     "robust + refine": lambda: Config.preset("robust", refine={"enabled": True}),
     "robust, gaec": lambda: Config.model_validate({**Config.preset("robust").to_dict(), "contractor": "gaec"}),
+    "rgbd without split": lambda: Config.preset("rgbd", split={"enabled": False}),
+    "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
 
 
