@@ -956,6 +956,7 @@ def finish_segmentation(
             masks=labels if sp.own_fraction is not None else None,
             own_fraction=sp.own_fraction or 0.0,
             own_cover=sp.own_cover,
+            num_objects=num_objects,
             rng=cfg.seed,
         )
         if split_info["num_objects"] > num_objects:
@@ -970,9 +971,19 @@ def finish_segmentation(
             out_labels, points, cameras, confidence=[v.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
         )
         timings["refine"] = time.perf_counter() - t_refine
+    area = None
+    if split_info is not None and split_info["num_objects"] >= split_info["first_new"]:  # the split made new objects
+        sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
+        area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
         col = np.zeros(g.num_nodes, np.int64)
-        col[g.members["node"]] = obj
+        if area is None:
+            col[g.members["node"]] = obj
+        else:  # after a split the masks of one node can belong to different objects: the node takes the one with most pixels
+            node = np.asarray(g.members["node"], np.int64)
+            k = int(obj.max(initial=0)) + 1
+            votes = np.bincount(node * k + obj, weights=area + 1e-9, minlength=g.num_nodes * k).reshape(g.num_nodes, k)
+            col = votes.argmax(1).astype(np.int64)
         g.node_attr["object"] = col
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
     clouds = node_point_sets(object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in views])

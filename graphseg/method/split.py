@@ -163,7 +163,9 @@ def convexity_graph(
     convex = np.einsum("ni,ni->n", N[a] - N[b], D) / np.maximum(np.linalg.norm(D, axis=1), 1e-12)
     same = np.einsum("ni,ni->n", N[a], N[b]) > np.cos(np.deg2rad(concave_angle))
     w = np.where((convex < -concave_margin) & ~same, concave_weight, 1.0)
-    return coo_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
+    W = coo_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
+    W.eliminate_zeros()  # concave_weight 0: no link at all across a concave crease
+    return W
 
 
 def normalized_cut(W: Any, *, min_size: int = 1, rng: Any = None) -> tuple[np.ndarray, float]:
@@ -301,6 +303,7 @@ def split_objects(
     masks: Sequence[np.ndarray] | None = None,
     own_fraction: float = 0.8,
     own_cover: float = 0.5,
+    num_objects: int | None = None,
     rng: Any = None,
 ) -> tuple[list[np.ndarray], dict[str, Any]]:
     """Split every object whose fused 3D points fall into parts joined by a cheap cut.
@@ -331,6 +334,9 @@ def split_objects(
         is undone, the part joining the neighbour it has the strongest links to.
     own_fraction, own_cover : float
         See ``masks``.
+    num_objects : int, optional
+        The largest object id in use (default: the largest in ``labels``); new
+        parts are numbered after it.
     rng : None, int or numpy.random.Generator, keyword-only
         Start vectors of the eigen-solver.
 
@@ -341,7 +347,9 @@ def split_objects(
         object keeps its id, the others get new ids after the largest one.
     info : dict
         ``objects``: one entry per object that was examined, ``{"object",
-        "voxels", "parts", "part_voxels"}``; ``num_objects``: the largest id now.
+        "voxels", "parts", "part_voxels"}``; ``num_objects``: the largest id now;
+        ``first_new``: the first id given to a new part (parts got ids
+        ``first_new..num_objects``).
 
     Notes
     -----
@@ -355,7 +363,8 @@ def split_objects(
     if voxel_size <= 0 or min_voxels < 1 or max_ncut < 0:
         raise ValueError(f"expected voxel_size > 0, min_voxels >= 1 and max_ncut >= 0 (got {voxel_size}, {min_voxels}, {max_ncut})")
     out = [np.array(lab, copy=True) for lab in labels]
-    top = int(max((int(lab.max()) for lab in out if lab.size), default=0))
+    top = max(int(max((int(lab.max()) for lab in out if lab.size), default=0)), int(num_objects or 0))
+    first_new = top + 1
     gen = np.random.default_rng(rng)
     chunks = []
     for i in range(n):  # every labelled pixel with a point, in views with a camera
@@ -368,7 +377,7 @@ def split_objects(
         chunks.append((np.full(int(ok.sum()), i), rows[ok], cols[ok], p[ok], out[i][rows[ok], cols[ok]].astype(np.int64), mk))
     entries: list[dict[str, Any]] = []
     if not chunks:
-        return out, {"objects": entries, "num_objects": top}
+        return out, {"objects": entries, "num_objects": top, "first_new": first_new}
     view, rows, cols, P, obj, mask = (np.concatenate(c) for c in zip(*chunks))
     mask = np.where(mask > 0, view * (int(mask.max(initial=0)) + 1) + mask, -1)  # one code per (view, mask); -1 = none
     centre = np.array([np.asarray(c[1], np.float64)[:3, 3] if c[1] is not None else np.zeros(3) for c in cameras]).reshape(n, 3)
@@ -403,4 +412,4 @@ def split_objects(
         for i in np.unique(view[sel]):
             at = view[sel] == i
             out[i][rows[sel][at], cols[sel][at]] = new[at].astype(out[i].dtype)
-    return out, {"objects": entries, "num_objects": top}
+    return out, {"objects": entries, "num_objects": top, "first_new": first_new}

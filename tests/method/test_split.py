@@ -100,7 +100,7 @@ def test_split_objects_keeps_one_body_and_skips_views_without_a_camera():
     two = np.r_[dome(0.0), dome(0.1)]
     lab = np.ones((1, len(two)), np.int32)
     out, info = split_objects([lab], [two[None]], [(None, None)], rng=0)  # no camera: nothing to orient normals by
-    assert out[0].tolist() == lab.tolist() and info == {"objects": [], "num_objects": 1}
+    assert out[0].tolist() == lab.tolist() and info == {"objects": [], "num_objects": 1, "first_new": 2}
     nan = np.full((1, 4, 3), np.nan)
     out, info = split_objects([np.ones((1, 4), np.int32)], [nan], [(None, EYE)])  # no points
     assert out[0].tolist() == [[1, 1, 1, 1]] and info["objects"] == []
@@ -158,3 +158,41 @@ def test_the_mask_guard_keeps_only_parts_that_masks_of_their_own_cover():
     assert np.unique(out[0]).tolist() == [1]
     out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[half], own_fraction=0.8, own_cover=0.3, rng=0)
     assert np.unique(out[0]).tolist() == [1, 2]
+
+
+def test_split_config_is_validated_and_on_in_the_presets_only():
+    from pydantic import ValidationError
+
+    from graphseg.config import validation_message
+
+    assert [Config.preset(p).split.enabled for p in ("rgbd", "robust", "multicut", "paper")] == [True, True, True, False]
+    for bad, field in (({"max_ncut": -1}, "max_ncut"), ({"min_voxels": 0}, "min_voxels"), ({"own_fraction": 1.5}, "own_fraction")):
+        with pytest.raises(ValidationError) as err:
+            Config.model_validate({"split": bad})
+        assert validation_message(err.value, Config).startswith(f"split.{field}: "), validation_message(err.value, Config)
+
+
+def test_a_zero_concave_weight_removes_the_links_and_still_splits():
+    two = np.r_[dome(0.0), dome(0.1)]
+    lab = [np.ones((1, len(two)), np.int32)]
+    out, info = split_objects(lab, [two[None]], [(None, EYE)], concave_weight=0.0, rng=0)
+    assert np.unique(out[0]).tolist() == [1, 2]
+    out, info = split_objects(lab, [two[None]], [(None, EYE)], num_objects=6, rng=0)  # ids in use beyond the labels' largest
+    assert np.unique(out[0]).tolist() == [1, 7] and info["first_new"] == 7 and info["num_objects"] == 7
+
+
+def test_graph_nodes_take_the_object_with_most_pixels_after_a_split():
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    per_box = [[(v.instances == k) for k in (1, 2)] for v in scene.views]
+    masks = [per_box[0], [scene.views[1].instances > 0], per_box[2]]  # views 0 and 2: one mask per box; view 1: one over both
+    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd"))
+    assert res.num_objects == 2
+    area = np.array([int(np.sum(masks[v][m])) for v, m in zip(res.mask_view, res.mask_id)])
+    for g in res.graphs:
+        node = np.asarray(g.members["node"])
+        for n in range(g.num_nodes):
+            own = node == n
+            votes = np.bincount(res.mask_object[own], weights=area[own], minlength=res.num_objects + 1)
+            assert g.node_attr["object"][n] == votes.argmax()  # the node's object: most of its masks' pixels
+    mixed = [n for g in res.graphs for n in range(g.num_nodes) if len(set(res.mask_object[np.asarray(g.members["node"]) == n].tolist())) > 1]
+    assert mixed  # the case of interest happens: one node, masks of two objects
