@@ -75,20 +75,20 @@ def _robust(contractor: object = "constrained", **update) -> Config:
     return Config.model_validate({**Config.preset("robust").to_dict(), "contractor": contractor, **update})
 
 
-def _without_split(name: str, **split) -> Config:
-    """Preset ``name`` with the 3D split of objects switched off (or with other split options)."""
-    return Config.model_validate({**Config.preset(name).to_dict(), "split": split or {"enabled": False}})
+def _split(name: str, **split) -> Config:
+    """Preset ``name`` with its ``split`` section replaced by ``split`` (nothing given: the split off)."""
+    return Config.preset(name, split=split or {"enabled": False})
 
 
 def variants() -> dict[str, Config]:
     """Rows: the presets, each also without the 3D split of objects, then one change each to ``robust`` (issue 21's items)."""
     return {
         "rgbd": Config.preset("rgbd"),
-        "rgbd without split": _without_split("rgbd"),
-        "rgbd, split with mask guard 0.8 / 0.5": _without_split("rgbd", enabled=True, own_fraction=0.8, own_cover=0.5),
+        "rgbd without split": _split("rgbd"),
+        "rgbd, split with mask guard 0.8 / 0.5": _split("rgbd", enabled=True, own_fraction=0.8, own_cover=0.5),
         "robust": Config.preset("robust"),
-        "robust without split": _without_split("robust"),
-        "multicut without split": _without_split("multicut"),
+        "robust without split": _split("robust"),
+        "multicut without split": _split("multicut"),
         "robust + refine": _robust(refine={"enabled": True}),
         "robust, gaec": _robust("gaec"),
         "robust, gaec repulsion 2": _robust({"gaec": {"repulsion": 2.0}}),

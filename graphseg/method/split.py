@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from ..graphs import combine_keys, group_by_key
+
 __all__ = ["convexity_graph", "normalized_cut", "split_objects", "voxelize"]
 
 
@@ -62,7 +64,7 @@ def voxelize(points: np.ndarray, voxel_size: float) -> tuple[np.ndarray, np.ndar
 
     Notes
     -----
-    O(N log N) (one sort of packed integer keys).
+    O(N log N) (one sort of packed integer keys, :func:`~graphseg.graphs.group_by_key`).
 
     Examples
     --------
@@ -79,12 +81,10 @@ def voxelize(points: np.ndarray, voxel_size: float) -> tuple[np.ndarray, np.ndar
         return np.zeros((0, 3)), np.zeros(0, np.int64), np.zeros(0, np.int64)
     cell = np.floor(P / voxel_size).astype(np.int64)
     cell -= cell.min(0)
-    span = cell.max(0) + 1
-    key = (cell[:, 0] * span[1] + cell[:, 1]) * span[2] + cell[:, 2]
-    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel().astype(np.int64)
+    grouped = group_by_key(combine_keys(list(cell.T), (cell.max(0) + 1).tolist()), stable=False)  # voxels in key order
+    inverse, counts = grouped.groups, grouped.counts
     centres = np.stack([np.bincount(inverse, weights=P[:, d], minlength=counts.size) for d in range(3)], 1) / counts[:, None]
-    return centres, inverse, counts.astype(np.int64)
+    return centres, inverse, counts
 
 
 def convexity_graph(
@@ -409,7 +409,8 @@ def split_objects(
             top += 1
             part_id[p] = top
         new = part_id[inverse]
-        for i in np.unique(view[sel]):
-            at = view[sel] == i
-            out[i][rows[sel][at], cols[sel][at]] = new[at].astype(out[i].dtype)
+        vs, rs, cs = view[sel], rows[sel], cols[sel]
+        for i in np.unique(vs):
+            at = vs == i
+            out[i][rs[at], cs[at]] = new[at].astype(out[i].dtype)
     return out, {"objects": entries, "num_objects": top, "first_new": first_new}
