@@ -101,6 +101,7 @@ def variants() -> dict[str, Config]:
         "GraphSeg [rgbd] without the 3D split of objects": _variant(base, split={"enabled": False}),
         "robust preset without the 3D split of objects": _variant(Config.preset("robust"), split={"enabled": False}),
         "multicut preset without the 3D split of objects": _variant(Config.preset("multicut"), split={"enabled": False}),
+        "GraphSeg [rgbd], split without the 3D merge of objects": _variant(base, split={"enabled": True, "merge_ncut": None}),
         "+ core_attach": _variant(base, contractor="core_attach"),
         "+ repulsion (jump+concave), core_attach": _variant(base, stages=_with_repulsion(base, CONCAVE), contractor="core_attach"),
         "view_consensus for pixel_match": _variant(base, stages=[["view_consensus"], *stages[1:]]),

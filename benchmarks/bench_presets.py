@@ -16,8 +16,9 @@ Writes the table as Markdown next to the JSON (same name, ``.md``).
 Besides the presets, ``--presets`` takes the variants of :data:`VARIANTS`
 (issue 21: ``"robust + refine"``, per-pixel refinement after contraction;
 ``"robust, gaec"``, greedy additive edge contraction; ``"rgbd without split"``
-and ``"robust without split"``, the presets without their 3D split of objects,
-whose time is the ``split`` column).
+and ``"robust without split"``, the presets without their 3D split and merge of
+objects, whose time is the ``split`` column; ``"rgbd without merge"``, the
+split alone).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
@@ -46,6 +47,7 @@ VARIANTS = {
     "robust + refine": lambda: Config.preset("robust", refine={"enabled": True}),
     "robust, gaec": lambda: Config.model_validate({**Config.preset("robust").to_dict(), "contractor": "gaec"}),
     "rgbd without split": lambda: Config.preset("rgbd", split={"enabled": False}),
+    "rgbd without merge": lambda: Config.preset("rgbd", split={"enabled": True, "merge_ncut": None}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
 

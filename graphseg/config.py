@@ -138,7 +138,11 @@ class LiftedConfig(_Model):
     ``fragment_ratio`` of 0.5, chosen on the tuning half of
     ``bench_rgb_only.py``; measured depth keeps the preset's options (the same
     rule lowered YCB-Video 0001 at 3 and 5 views; ``docs/results.md``).
-    ``objects`` goes on top of :class:`ObjectConfig` the same way (empty by default).
+    ``objects`` goes on top of :class:`ObjectConfig` the same way (empty by default),
+    and ``split`` on top of :class:`SplitConfig`: by default estimated points
+    never join objects (``merge_ncut`` None), since their smoothed surfaces make
+    touching objects look like one body (the join lowered the tuning half of
+    ``bench_rgb_only.py`` from 0.686 to 0.659; ``docs/results.md``).
     ``preset`` (None by default) replaces the stages and the contractor with
     those of a preset before ``criteria`` apply. ``backend_options`` gives the
     segmenter and matcher that run on the estimated points their defaults; an
@@ -156,6 +160,9 @@ class LiftedConfig(_Model):
         default_factory=lambda: {"chamfer_3d": {"fragment_ratio": 0.5}}, description="criterion name -> options applied on top of its stage entries"
     )
     objects: dict[str, Any] = Field(default_factory=dict, description="ObjectConfig fields applied on top of the objects section")
+    split: dict[str, Any] = Field(
+        default_factory=lambda: {"merge_ncut": None}, description="SplitConfig fields applied on top of the split section (default: estimated points never join objects)"
+    )
     backend_options: dict[str, dict[str, Any]] = Field(
         default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options for estimated points (backends.options still wins)"
     )
@@ -164,6 +171,12 @@ class LiftedConfig(_Model):
     @classmethod
     def _known_object_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
         ObjectConfig.model_validate(v)  # unknown field or bad value: one line naming it
+        return v
+
+    @field_validator("split")
+    @classmethod
+    def _known_split_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
+        SplitConfig.model_validate(v)
         return v
 
     @field_validator("preset")
@@ -214,8 +227,10 @@ class SplitConfig(_Model):
     voxels are linked, weakly across concave creases, and the graph is cut in
     two by normalized cut while the best cut costs less than ``max_ncut``.
     Touching objects whose masks were joined come apart; every pixel follows
-    its voxel. Chosen on the tune halves of ``bench_ycb_views.py``
-    (``docs/results.md``).
+    its voxel. Then touching objects whose union no cut below ``merge_ncut``
+    separates are joined (:func:`graphseg.method.split.merge_objects`): the
+    pieces of one object that the masks and matches left apart. Chosen on the
+    tune halves of ``bench_ycb_views.py`` (``docs/results.md``).
     """
 
     enabled: bool = Field(False, description="split objects whose fused 3D points fall into parts joined by a cheap normalized cut")
@@ -227,6 +242,9 @@ class SplitConfig(_Model):
     concave_margin: float = Field(0.05, ge=0, description="a link is concave when (n_a - n_b) . unit(x_a - x_b) < -concave_margin")
     own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
     own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
+    merge_ncut: float | None = Field(
+        0.022, ge=0, description="then join two touching objects when every normalized cut of their union costs at least this (None: never join)"
+    )
 
 
 class OutputConfig(_Model):
@@ -552,11 +570,11 @@ class Config(_Model):
         3
         >>> cfg.for_lifter("sfm").backends.options["reprojection"]["max_color_distance"]
         30.0
-        >>> cfg.for_lifter("rgbd") is cfg
-        True
+        >>> cfg.for_lifter("rgbd") is cfg, cfg.split.merge_ncut, cfg.for_lifter("sfm").split.merge_ncut
+        (True, 0.022, None)
         """
         lf = self.lifted
-        if lifter is None or lifter not in lf.lifters or not (lf.criteria or lf.objects or lf.preset or lf.backend_options):
+        if lifter is None or lifter not in lf.lifters or not (lf.criteria or lf.objects or lf.split or lf.preset or lf.backend_options):
             return self
         base: Config = self
         if lf.preset is not None and self.method == "graphseg":
@@ -565,11 +583,13 @@ class Config(_Model):
         over = lf.criteria
         stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in base.stages]
         objects = ObjectConfig.model_validate({**self.objects.model_dump(), **lf.objects})
+        split = SplitConfig.model_validate({**self.split.model_dump(), **lf.split})
         options = {**self.backends.options, **{k: {**v, **self.backends.options.get(k, {})} for k, v in lf.backend_options.items()}}
         return base.model_copy(
             update={
                 "stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages],
                 "objects": objects,
+                "split": split,
                 "backends": self.backends.model_copy(update={"options": options}),
             }
         )

@@ -242,10 +242,16 @@ def test_lifted_points_get_their_own_criterion_options():
     assert sfm.objects == cfg.objects  # no object overrides by default
     three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
     assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
-    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "backend_options": {}})
+    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "split": {}, "backend_options": {}})
     assert off.for_lifter("sfm") is off
+    assert cfg.split.merge_ncut == 0.022 and sfm.split.merge_ncut is None  # estimated points never join objects
+    assert sfm.split.model_dump(exclude={"merge_ncut"}) == cfg.split.model_dump(exclude={"merge_ncut"})  # the rest of the split kept
+    joins = Config.preset("rgbd", lifted={"split": {}}).for_lifter("sfm")
+    assert joins.split == cfg.split
     with pytest.raises(ValidationError, match="merge_sen"):
         Config(lifted={"objects": {"merge_sen": True}})
+    with pytest.raises(ValidationError, match="merge_ncutt"):
+        Config(lifted={"split": {"merge_ncutt": None}})
     with pytest.raises(ValidationError, match="unknown option 'fragment_ration'"):
         Config(lifted={"criteria": {"chamfer_3d": {"fragment_ration": 0.5}}})
     with pytest.raises(ValidationError, match="nope"):

@@ -5,7 +5,7 @@ from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
 from .refine import project_to_view, refine_labels
 from .segment import segment
-from .split import split_objects
+from .split import merge_objects, split_objects
 
 __all__ = [
     "fit_table_plane",
@@ -17,6 +17,7 @@ __all__ = [
     "pose_distance",
     "segment",
     "split_objects",
+    "merge_objects",
     "refine_labels",
     "project_to_view",
 ]

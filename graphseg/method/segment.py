@@ -45,7 +45,7 @@ from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
 from .masks import compose_masks, majority_objects, paint_masks
 from .refine import project_to_view, refine_labels
-from .split import split_objects
+from .split import merge_objects, split_objects
 
 __all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -943,23 +943,31 @@ def finish_segmentation(
     if cfg.split.enabled:
         t_split = time.perf_counter()
         sp = cfg.split
+        graph_options = sp.model_dump(include={"voxel_size", "min_voxels", "concave_weight", "concave_angle", "concave_margin"})  # the voxel graph both use
         out_labels, split_info = split_objects(
             out_labels,
             points,
             cameras,
-            voxel_size=sp.voxel_size,
             max_ncut=sp.max_ncut,
-            min_voxels=sp.min_voxels,
-            concave_weight=sp.concave_weight,
-            concave_angle=sp.concave_angle,
-            concave_margin=sp.concave_margin,
+            **graph_options,
             masks=labels if sp.own_fraction is not None else None,
             own_fraction=sp.own_fraction or 0.0,
             own_cover=sp.own_cover,
             num_objects=num_objects,
             rng=cfg.seed,
         )
-        if split_info["num_objects"] > num_objects:
+        changed = split_info["num_objects"] > num_objects
+        split_info["merges"] = []
+        if sp.merge_ncut is not None:
+            out_labels, merged = merge_objects(
+                out_labels, points, cameras, min_ncut=sp.merge_ncut, **graph_options, num_objects=split_info["num_objects"], rng=cfg.seed
+            )
+            split_info["merges"] = merged["merges"]
+            if merged["merges"]:
+                obj = merged["mapping"][obj]
+                split_info["num_objects"] = merged["num_objects"]
+                changed = True
+        if changed:
             obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
             num_objects = split_info["num_objects"]
         timings["split"] = time.perf_counter() - t_split
@@ -972,7 +980,7 @@ def finish_segmentation(
         )
         timings["refine"] = time.perf_counter() - t_refine
     area = None
-    if split_info is not None and split_info["num_objects"] >= split_info["first_new"]:  # the split made new objects
+    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges")):  # the split or merge changed objects
         sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
         area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)

@@ -1,4 +1,4 @@
-"""Split objects that hold several touching objects, by a normalized cut of their fused 3D points.
+"""Split objects that hold several touching objects, and join pieces of one, by normalized cuts of their fused 3D points.
 
 Contraction decides whole masks: when masks of two touching objects were
 joined (a mask that straddles both, in several views), their object holds both
@@ -9,6 +9,9 @@ view, links neighbouring voxels (:func:`convexity_graph`; a link across a
 concave crease is weak), and bisects the graph by normalized cut
 (:func:`normalized_cut`, Shi & Malik 2000) while the best cut costs less than
 ``max_ncut``; every part becomes an object and every pixel follows its voxel.
+:func:`merge_objects` is the inverse: two touching objects whose union has no cut
+cheaper than ``min_ncut`` (above ``max_ncut``) are one body, the pieces of one object
+that the masks and matches never connected, and are joined.
 
 Examples
 --------
@@ -40,7 +43,7 @@ import numpy as np
 
 from ..graphs import combine_keys, group_by_key
 
-__all__ = ["convexity_graph", "normalized_cut", "split_objects", "voxelize"]
+__all__ = ["convexity_graph", "merge_objects", "normalized_cut", "split_objects", "voxelize"]
 
 
 def voxelize(points: np.ndarray, voxel_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -237,6 +240,41 @@ def normalized_cut(W: Any, *, min_size: int = 1, rng: Any = None) -> tuple[np.nd
     return best
 
 
+def _labelled_points(labels: Sequence[np.ndarray], points: Sequence[np.ndarray], cameras: Sequence[tuple[Any, Any]], masks: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, ...] | None:
+    """Every labelled pixel with a finite point, in views with a camera: ``view, rows, cols, points, object, mask code, camera centres``."""
+    n = len(labels)
+    chunks = []
+    for i in range(n):
+        if cameras[i][1] is None:
+            continue
+        lab = np.asarray(labels[i])
+        rows, cols = np.nonzero(lab > 0)
+        p = np.asarray(points[i])[rows, cols].astype(np.float64)
+        ok = np.isfinite(p).all(1)
+        mk = np.asarray(masks[i])[rows[ok], cols[ok]].astype(np.int64) if masks is not None else np.zeros(int(ok.sum()), np.int64)
+        chunks.append((np.full(int(ok.sum()), i), rows[ok], cols[ok], p[ok], lab[rows[ok], cols[ok]].astype(np.int64), mk))
+    if not chunks:
+        return None
+    view, rows, cols, P, obj, mask = (np.concatenate(c) for c in zip(*chunks))
+    mask = np.where(mask > 0, view * (int(mask.max(initial=0)) + 1) + mask, -1)  # one code per (view, mask); -1 = none
+    centre = np.array([np.asarray(c[1], np.float64)[:3, 3] if c[1] is not None else np.zeros(3) for c in cameras]).reshape(n, 3)
+    return view, rows, cols, P, obj, mask, centre
+
+
+def _surface_graph(
+    P: np.ndarray, eye: np.ndarray, voxel_size: float, *, min_voxels: int, concave_angle: float, concave_margin: float, concave_weight: float
+) -> tuple[np.ndarray, Any]:
+    """Voxels of points ``P`` (seen from camera centres ``eye``) and their :func:`convexity_graph`; ``W`` is None below ``min_voxels`` voxels."""
+    centres, inverse, counts = voxelize(P, voxel_size)
+    m = counts.size
+    if m < min_voxels:
+        return inverse, None
+    eyes = np.stack([np.bincount(inverse, weights=eye[:, d], minlength=m) for d in range(3)], 1) / counts[:, None]
+    return inverse, convexity_graph(
+        centres, eyes, radius=3 * voxel_size, concave_angle=concave_angle, concave_margin=concave_margin, concave_weight=concave_weight
+    )
+
+
 def _parts(W: Any, nodes: np.ndarray, *, max_ncut: float, min_size: int, depth: int, gen: np.random.Generator) -> list[np.ndarray]:
     """Recursive bisection of the subgraph on ``nodes``: connected pieces first, then normalized cuts."""
     from scipy.sparse.csgraph import connected_components
@@ -366,36 +404,22 @@ def split_objects(
     top = max(int(max((int(lab.max()) for lab in out if lab.size), default=0)), int(num_objects or 0))
     first_new = top + 1
     gen = np.random.default_rng(rng)
-    chunks = []
-    for i in range(n):  # every labelled pixel with a point, in views with a camera
-        if cameras[i][1] is None:
-            continue
-        rows, cols = np.nonzero(out[i] > 0)
-        p = np.asarray(points[i])[rows, cols].astype(np.float64)
-        ok = np.isfinite(p).all(1)
-        mk = np.asarray(masks[i])[rows[ok], cols[ok]].astype(np.int64) if masks is not None else np.zeros(int(ok.sum()), np.int64)
-        chunks.append((np.full(int(ok.sum()), i), rows[ok], cols[ok], p[ok], out[i][rows[ok], cols[ok]].astype(np.int64), mk))
+    crease = {"concave_angle": concave_angle, "concave_margin": concave_margin, "concave_weight": concave_weight}
     entries: list[dict[str, Any]] = []
-    if not chunks:
+    got = _labelled_points(out, points, cameras, masks)
+    if got is None:
         return out, {"objects": entries, "num_objects": top, "first_new": first_new}
-    view, rows, cols, P, obj, mask = (np.concatenate(c) for c in zip(*chunks))
-    mask = np.where(mask > 0, view * (int(mask.max(initial=0)) + 1) + mask, -1)  # one code per (view, mask); -1 = none
-    centre = np.array([np.asarray(c[1], np.float64)[:3, 3] if c[1] is not None else np.zeros(3) for c in cameras]).reshape(n, 3)
+    view, rows, cols, P, obj, mask, centre = got
     order = np.argsort(obj, kind="stable")
     bounds = np.searchsorted(obj[order], np.arange(1, top + 2))
     for o in range(1, top + 1):
         sel = order[bounds[o - 1] : bounds[o]]
         if sel.size < 2 * min_voxels:
             continue
-        centres, inverse, counts = voxelize(P[sel], voxel_size)
-        m = counts.size
-        if m < 2 * min_voxels:
+        inverse, W = _surface_graph(P[sel], centre[view[sel]], voxel_size, min_voxels=2 * min_voxels, **crease)
+        if W is None:
             continue
-        eye = centre[view[sel]]
-        eyes = np.stack([np.bincount(inverse, weights=eye[:, d], minlength=m) for d in range(3)], 1) / counts[:, None]
-        W = convexity_graph(
-            centres, eyes, radius=3 * voxel_size, concave_angle=concave_angle, concave_margin=concave_margin, concave_weight=concave_weight
-        )
+        m = W.shape[0]
         parts = _parts(W, np.arange(m), max_ncut=max_ncut, min_size=min_voxels, depth=0, gen=gen)
         if masks is not None and len(parts) > 1:
             parts = _owned_parts(parts, W, inverse, mask[sel], own_fraction, own_cover)
@@ -414,3 +438,171 @@ def split_objects(
             at = vs == i
             out[i][rs[at], cs[at]] = new[at].astype(out[i].dtype)
     return out, {"objects": entries, "num_objects": top, "first_new": first_new}
+
+
+def _cut_cost(W: Any, side: np.ndarray) -> float:
+    """``cut / vol(side) + cut / vol(other)`` of one two-way partition (inf when a side has no volume)."""
+    degree = np.asarray(W.sum(1)).ravel()
+    vol = float(degree[side].sum())
+    rest = float(degree.sum()) - vol
+    if vol <= 0 or rest <= 0:
+        return float("inf")
+    coo = W.tocoo()
+    cut = float(coo.data[side[coo.row] & ~side[coo.col]].sum())
+    return cut / vol + cut / rest
+
+
+def _union_cut(W: Any, *, min_size: int, gen: np.random.Generator) -> float:
+    """What the split would pay to cut a graph: 0 for two separate bodies, else its best normalized cut (inf: too small to cut)."""
+    from scipy.sparse.csgraph import connected_components
+
+    count, comp = connected_components(W, directed=False)
+    if count > 1:
+        sizes = np.bincount(comp)
+        if int((sizes >= min_size).sum()) >= 2:
+            return 0.0
+        keep = comp == int(np.argmax(sizes))
+        W = W[keep][:, keep]
+    return normalized_cut(W, min_size=min_size, rng=gen)[1]
+
+
+def merge_objects(
+    labels: Sequence[np.ndarray],
+    points: Sequence[np.ndarray],
+    cameras: Sequence[tuple[Any, Any]],
+    *,
+    voxel_size: float = 0.006,
+    min_ncut: float = 0.022,
+    min_voxels: int = 200,
+    concave_weight: float = 0.1,
+    concave_angle: float = 10.0,
+    concave_margin: float = 0.05,
+    num_objects: int | None = None,
+    rng: Any = None,
+) -> tuple[list[np.ndarray], dict[str, Any]]:
+    """Join touching objects whose fused 3D points form one body (the inverse of :func:`split_objects`).
+
+    Two objects, each of at least ``min_voxels`` voxels and with voxels within
+    reach of each other, are joined when every normalized cut of their union's
+    :func:`convexity_graph` costs at least ``min_ncut``: no concave crease or gap
+    separates them, so they are the pieces of one object that the views' masks
+    and matches did not connect. The pair whose union is hardest to cut is
+    joined first, then the pairs are measured again, until no pair qualifies.
+    With ``min_ncut`` above the split's ``max_ncut`` a union that the split
+    would cut is never joined.
+
+    Parameters
+    ----------
+    labels : list of int ``[H, W]``
+        Object ids per view (0 = none), consistent across views.
+    points : list of float ``[H, W, 3]``
+        World point maps (NaN = invalid).
+    cameras : list of ``(K, cam_to_world [4, 4])``
+        Only the camera centres are read; a view whose ``cam_to_world`` is None
+        takes no part in the measurement (its labels are still renamed).
+    voxel_size, min_voxels, concave_weight, concave_angle, concave_margin
+        As in :func:`split_objects`.
+    min_ncut : float
+        Join when the union's best normalized cut is at least this.
+    num_objects : int, optional
+        The largest object id in use (default: the largest in ``labels``);
+        ``mapping`` covers the ids up to it.
+    rng : None, int or numpy.random.Generator, keyword-only
+        Start vectors of the eigen-solver.
+
+    Returns
+    -------
+    labels : list of int ``[H, W]``
+        New arrays (the inputs are not modified): each joined object takes the
+        smaller id, and the ids above a freed one move down to close the gap.
+    info : dict
+        ``merges``: ``{"ids", "ncut"}`` per join, in order, with the ids as
+        they were before any renaming; ``mapping``: int64 ``[top + 1]``, the new
+        id of every old id (0 stays 0); ``num_objects``: the largest id now.
+
+    Notes
+    -----
+    One voxel graph and eigen-solve per pair of touching objects (and again
+    for the pairs of a joined object): about 0.05 s per pair of a few thousand
+    voxels.
+
+    Examples
+    --------
+    Two halves of one dome, labelled as two objects, are joined; two domes side
+    by side stay apart:
+
+    >>> import numpy as np
+    >>> def dome(cx, r=0.05, step=0.003):
+    ...     g = np.arange(-r, r + 1e-9, step)
+    ...     x, y = np.meshgrid(g, g)
+    ...     k = x**2 + y**2 <= r * r
+    ...     return np.c_[cx + x[k], y[k], np.sqrt(r * r - x[k] ** 2 - y[k] ** 2)]
+    >>> cam = (np.eye(3), np.array([[1.0, 0, 0, 0.05], [0, 1, 0, 0], [0, 0, 1, 0.8], [0, 0, 0, 1]]))
+    >>> one = dome(0.0)
+    >>> halves = np.where(one[:, 1] < 0, 1, 2).astype(np.int32)[None]
+    >>> out, info = merge_objects([halves], [one[None]], [cam], rng=0)
+    >>> np.unique(out[0]).tolist(), [m["ids"] for m in info["merges"]]
+    ([1], [[1, 2]])
+    >>> two = np.r_[dome(0.0), dome(0.1)]
+    >>> sides = np.where(two[:, 0] < 0.05, 1, 2).astype(np.int32)[None]
+    >>> out, info = merge_objects([sides], [two[None]], [cam], rng=0)
+    >>> np.unique(out[0]).tolist(), info["merges"]
+    ([1, 2], [])
+    """
+    from scipy.spatial import cKDTree
+
+    n = len(labels)
+    if not (len(points) == len(cameras) == n):
+        raise ValueError(f"expected labels, points and cameras for the same views (got {n}, {len(points)}, {len(cameras)})")
+    if voxel_size <= 0 or min_voxels < 1 or min_ncut < 0:
+        raise ValueError(f"expected voxel_size > 0, min_voxels >= 1 and min_ncut >= 0 (got {voxel_size}, {min_voxels}, {min_ncut})")
+    top = max(int(max((int(np.max(lab)) for lab in labels if np.size(lab)), default=0)), int(num_objects or 0))
+    mapping = np.arange(top + 1, dtype=np.int64)
+    merges: list[dict[str, Any]] = []
+    got = _labelled_points(labels, points, cameras)
+    if got is not None and top > 1:
+        gen = np.random.default_rng(rng)
+        crease = {"concave_angle": concave_angle, "concave_margin": concave_margin, "concave_weight": concave_weight}
+        view, _, _, P, obj, _, centre = got
+        # which objects touch: voxels of one grid, each owned by the object with most of its points
+        centres, inverse, _ = voxelize(P, voxel_size)
+        key, count = np.unique(inverse * (top + 1) + obj, return_counts=True)
+        vox, lab = key // (top + 1), key % (top + 1)
+        best = np.lexsort((-count, vox))
+        first = np.r_[True, vox[best][1:] != vox[best][:-1]]
+        owner = np.zeros(centres.shape[0], np.int64)
+        owner[vox[best][first]] = lab[best][first]
+        big = np.bincount(lab, minlength=top + 1) >= min_voxels  # objects with points in at least min_voxels voxels
+        near = cKDTree(centres).query_pairs(3 * voxel_size, output_type="ndarray")
+        a, b = owner[near[:, 0]], owner[near[:, 1]]
+        cross = (a != b) & big[a] & big[b]
+        pairs = set(zip(np.minimum(a, b)[cross].tolist(), np.maximum(a, b)[cross].tolist()))
+        order = np.argsort(obj, kind="stable")
+        bounds = np.searchsorted(obj[order], np.arange(top + 2))
+        members = {int(o): order[bounds[o] : bounds[o + 1]] for o in np.flatnonzero(big)}
+        cost: dict[tuple[int, int], float] = {}
+        while pairs:
+            for a_, b_ in sorted(pairs - cost.keys()):  # the union's own surface graph (normals from its points only)
+                sel = np.r_[members[a_], members[b_]]
+                inverse, W = _surface_graph(P[sel], centre[view[sel]], voxel_size, min_voxels=2, **crease)
+                if W is None:
+                    cost[(a_, b_)] = float("inf")
+                    continue
+                # the cut between the two objects is one cut of the union: below min_ncut, no eigen-solve is needed
+                share = np.bincount(inverse[: members[a_].size], minlength=W.shape[0]) / np.bincount(inverse, minlength=W.shape[0])
+                between = _cut_cost(W, share >= 0.5)
+                cost[(a_, b_)] = between if between < min_ncut else min(between, _union_cut(W, min_size=min_voxels, gen=gen))
+            (a_, b_), nc = max(cost.items(), key=lambda kv: (kv[1], -kv[0][0], -kv[0][1]))
+            if nc < min_ncut:
+                break
+            merges.append({"ids": [a_, b_], "ncut": float(nc)})
+            members[a_] = np.r_[members[a_], members.pop(b_)]
+            mapping[mapping == b_] = a_
+            pairs = {(min(a if a != b_ else a_, b if b != b_ else a_), max(a if a != b_ else a_, b if b != b_ else a_)) for a, b in pairs} - {(a_, a_)}
+            cost = {k: v for k, v in cost.items() if a_ not in k and b_ not in k}
+    if merges:
+        freed = np.zeros(top + 1, np.int64)
+        freed[[m["ids"][1] for m in merges]] = 1
+        mapping = mapping - np.cumsum(freed)[mapping]
+    out = [mapping[np.asarray(lab)].astype(np.asarray(lab).dtype) if merges else np.array(lab, copy=True) for lab in labels]
+    return out, {"merges": merges, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}

@@ -360,8 +360,11 @@ def test_a_one_view_object_that_the_other_views_see_as_an_object_joins_it():
     assert r.num_objects == 2 and sup["merged"] == 1 and sup["confirmed"] == 1 and sup["dropped"] == 0
     assert r.object_of(0, 0) == r.object_of(1, 0) != 0
     assert_exact(scene, r)
-    off = segment(scene, masks, cut, Config.preset("rgbd", objects={"merge_seen": False}).without_3d())
+    off = segment(scene, masks, cut, Config.preset("rgbd", objects={"merge_seen": False}, split={"enabled": True, "merge_ncut": None}).without_3d())
     assert off.num_objects == 3 and off.info["support"]["merged"] == 0  # before: a third object
+    joined = segment(scene, masks, cut, Config.preset("rgbd", objects={"merge_seen": False}).without_3d())
+    assert joined.num_objects == 2 and [m["ids"] for m in joined.info["split"]["merges"]] == [[1, 3]]  # the 3D merge joins it too
+    assert_exact(scene, joined)
 
 
 def test_confirming_labels_counts_the_ids_the_other_views_give():

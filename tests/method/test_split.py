@@ -5,7 +5,13 @@ from scipy.sparse import csr_matrix
 from graphseg.config import Config
 from graphseg.method import segment
 from graphseg.method.masks import majority_objects
-from graphseg.method.split import convexity_graph, normalized_cut, split_objects, voxelize
+from graphseg.method.split import (
+    convexity_graph,
+    merge_objects,
+    normalized_cut,
+    split_objects,
+    voxelize,
+)
 from graphseg.metrics import evaluate
 from graphseg.sim.boxes import Box
 from graphseg.testing.scenes import box_scene, exact_matches
@@ -166,7 +172,7 @@ def test_split_config_is_validated_and_on_in_the_presets_only():
     from graphseg.config import validation_message
 
     assert [Config.preset(p).split.enabled for p in ("rgbd", "robust", "multicut", "paper")] == [True, True, True, False]
-    for bad, field in (({"max_ncut": -1}, "max_ncut"), ({"min_voxels": 0}, "min_voxels"), ({"own_fraction": 1.5}, "own_fraction")):
+    for bad, field in (({"max_ncut": -1}, "max_ncut"), ({"min_voxels": 0}, "min_voxels"), ({"own_fraction": 1.5}, "own_fraction"), ({"merge_ncut": -1}, "merge_ncut")):
         with pytest.raises(ValidationError) as err:
             Config.model_validate({"split": bad})
         assert validation_message(err.value, Config).startswith(f"split.{field}: "), validation_message(err.value, Config)
@@ -196,3 +202,77 @@ def test_graph_nodes_take_the_object_with_most_pixels_after_a_split():
             assert g.node_attr["object"][n] == votes.argmax()  # the node's object: most of its masks' pixels
     mixed = [n for g in res.graphs for n in range(g.num_nodes) if len(set(res.mask_object[np.asarray(g.members["node"]) == n].tolist())) > 1]
     assert mixed  # the case of interest happens: one node, masks of two objects
+
+
+def test_merge_objects_joins_the_halves_of_one_dome_and_closes_the_id_gap():
+    one, other = dome(0.0), dome(0.2)  # the second dome is far away: never within reach
+    pts = np.r_[one, other]
+    n = len(one)
+    lab = np.where(np.arange(len(pts)) < n, np.where(pts[:, 1] < 0, 1, 3), 2).astype(np.int32)[None]  # dome 0 as objects 1 and 3
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], rng=0)
+    assert out[0].shape == lab.shape and out[0].dtype == lab.dtype
+    assert [m["ids"] for m in info["merges"]] == [[1, 3]] and info["merges"][0]["ncut"] >= 0.022
+    assert info["mapping"].tolist() == [0, 1, 2, 1] and info["num_objects"] == 2
+    assert out[0][0, :n].tolist() == [1] * n and out[0][0, n:].tolist() == [2] * len(other)
+    assert lab.max() == 3  # input untouched
+    again, _ = merge_objects([lab], [pts[None]], [(None, EYE)], rng=0)
+    assert np.array_equal(again[0], out[0])
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_ncut=np.inf, rng=0)  # never join
+    assert info["merges"] == [] and out[0].tolist() == lab.tolist() and out[0] is not lab
+
+
+def test_merge_objects_keeps_two_touching_domes_apart():
+    two = np.r_[dome(0.0), dome(0.1)]
+    n = len(dome(0.0))
+    lab = np.where(np.arange(len(two)) < n, 1, 2).astype(np.int32)[None]
+    out, info = merge_objects([lab], [two[None]], [(None, EYE)], rng=0)
+    assert info["merges"] == [] and out[0].tolist() == lab.tolist()  # the crease between them is a cut below 0.022
+    # each dome's cheapest cut costs more than the crease: with the threshold below the crease they would be joined
+    out, info = merge_objects([lab], [two[None]], [(None, EYE)], min_ncut=0.0, rng=0)
+    assert info["num_objects"] == 1 and np.unique(out[0]).tolist() == [1]
+
+
+def test_merge_objects_edge_cases():
+    one = dome(0.0)
+    lab = np.where(one[:, 1] < 0, 1, 2).astype(np.int32)[None]
+    out, info = merge_objects([lab], [one[None]], [(None, None)], rng=0)  # no camera: nothing measured
+    assert info["merges"] == [] and out[0].tolist() == lab.tolist()
+    out, info = merge_objects([np.ones((1, 4), np.int32)], [np.full((1, 4, 3), np.nan)], [(None, EYE)])  # no points
+    assert info == {"merges": [], "mapping": info["mapping"], "num_objects": 1} and info["mapping"].tolist() == [0, 1]
+    small = np.where(one[:, 1] < -0.045, 2, 1).astype(np.int32)[None]  # object 2 has fewer than min_voxels voxels: left alone
+    assert merge_objects([small], [one[None]], [(None, EYE)], rng=0)[1]["merges"] == []
+    out, info = merge_objects([lab], [one[None]], [(None, EYE)], num_objects=4, rng=0)  # ids beyond the labels' largest move down too
+    assert info["mapping"].tolist() == [0, 1, 1, 2, 3] and info["num_objects"] == 3
+    with pytest.raises(ValueError, match="same views"):
+        merge_objects([lab], [], [])
+    with pytest.raises(ValueError, match="min_ncut >= 0"):
+        merge_objects([lab], [one[None]], [(None, EYE)], min_ncut=-1.0)
+
+
+def test_segment_joins_the_halves_of_a_box_that_no_match_connects():
+    box = (Box((0.0, 0.0, 0.05), (0.12, 0.10, 0.10), yaw=0.0, color=(200, 60, 60)),)
+    scene = box_scene(box, views=3, shape=(240, 320), arc_deg=50.0)
+    halves = [[(v.instances > 0) & (v.points[..., 0] < 0), (v.instances > 0) & (v.points[..., 0] >= 0)] for v in scene.views]
+    base = Config.preset("rgbd").to_dict()
+    base["stages"] = base["stages"][:1]  # 2D edges only: each half matches itself in the other views, never the other half
+    apart = segment(scene, halves, exact_matches(scene), Config.model_validate({**base, "split": {"enabled": True, "merge_ncut": None}}))
+    assert apart.num_objects == 2
+    res = segment(scene, halves, exact_matches(scene), Config.model_validate(base))
+    gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
+    assert res.num_objects == 1 and evaluate(res.labels, gt, pts)["mean"]["iou"] > 0.97
+    assert [m["ids"] for m in res.info["split"]["merges"]] == [[1, 2]]
+    assert res.mask_object.tolist() == [1] * 6 and np.unique(res.graphs[-1].node_attr["object"]).tolist() == [1]
+    touching = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    kept = segment(touching, [[(v.instances == k) for k in (1, 2)] for v in touching.views], exact_matches(touching), Config.preset("rgbd"))
+    assert kept.num_objects == 2 and kept.info["split"]["merges"] == []  # two touching boxes are not joined
+
+
+def test_cut_cost_of_two_cliques_by_hand():
+    from graphseg.method.split import _cut_cost
+
+    A = np.ones((4, 4)) - np.eye(4)
+    W = np.kron(np.eye(2), A)
+    W[3, 4] = W[4, 3] = 0.1
+    side = np.arange(8) < 4
+    assert _cut_cost(csr_matrix(W), side) == pytest.approx(2 * 0.1 / 12.1)  # the same cut normalized_cut finds
+    assert _cut_cost(csr_matrix(W), np.zeros(8, bool)) == float("inf")  # one side empty
