@@ -142,7 +142,9 @@ class LiftedConfig(_Model):
     and ``split`` on top of :class:`SplitConfig`: by default estimated points
     never join objects (``merge_ncut`` None), since their smoothed surfaces make
     touching objects look like one body (the join lowered the tuning half of
-    ``bench_rgb_only.py`` from 0.686 to 0.659; ``docs/results.md``).
+    ``bench_rgb_only.py`` from 0.686 to 0.659; ``docs/results.md``). Like
+    ``criteria``, a ``split`` given by the user replaces the whole default:
+    ``{"max_ncut": 0.02}`` alone turns the join back on for estimated points.
     ``preset`` (None by default) replaces the stages and the contractor with
     those of a preset before ``criteria`` apply. ``backend_options`` gives the
     segmenter and matcher that run on the estimated points their defaults; an
@@ -243,7 +245,7 @@ class SplitConfig(_Model):
     own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
     own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
     merge_ncut: float | None = Field(
-        0.022, ge=0, description="then join two touching objects when every normalized cut of their union costs at least this (None: never join)"
+        0.022, ge=0, description="then join two touching objects when the cheapest normalized cut found in their union costs at least this (None: never join)"
     )
 
 

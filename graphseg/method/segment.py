@@ -881,13 +881,18 @@ def finish_segmentation(
     background : list of bool ``[H, W]``
         The background class per view.
     config : Config
-        ``objects``, ``refine`` and ``output`` are read.
+        ``objects``, ``split``, ``refine`` and ``output`` are read.
     info : mapping, optional, keyword-only
         The run's own entries of ``Result.info`` (``background``, ``masks``,
         ``stages``, ``timings``, ``num_matches``, ``pairs``), kept in their
-        order; ``support``, ``refine`` and ``warnings`` are added, and
-        ``timings`` (a copy) gets ``refine`` (when enabled), ``outputs`` and
-        ``total``.
+        order; ``support``, ``split``, ``refine`` and ``warnings`` are added, and
+        ``timings`` (a copy) gets ``split`` (split and merge, when enabled),
+        ``refine`` (when enabled), ``outputs`` and ``total``. ``split`` (None
+        when disabled) holds :func:`~graphseg.method.split.split_objects`'
+        ``objects`` and ``first_new`` (ids before any merge), its ``merges``
+        and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
+        ``merges``, and its ``mapping`` as a list, or None without a merge) and
+        ``num_objects`` (the final count).
     start : float, optional, keyword-only
         :func:`time.perf_counter` at the start of the run, for
         ``timings["total"]`` (None: not recorded).
@@ -957,13 +962,14 @@ def finish_segmentation(
             rng=cfg.seed,
         )
         changed = split_info["num_objects"] > num_objects
-        split_info["merges"] = []
+        split_info["merges"], split_info["merge_mapping"] = [], None
         if sp.merge_ncut is not None:
             out_labels, merged = merge_objects(
                 out_labels, points, cameras, min_ncut=sp.merge_ncut, **graph_options, num_objects=split_info["num_objects"], rng=cfg.seed
             )
             split_info["merges"] = merged["merges"]
             if merged["merges"]:
+                split_info["merge_mapping"] = merged["mapping"].tolist()
                 obj = merged["mapping"][obj]
                 split_info["num_objects"] = merged["num_objects"]
                 changed = True

@@ -209,27 +209,45 @@ def test_merge_objects_joins_the_halves_of_one_dome_and_closes_the_id_gap():
     pts = np.r_[one, other]
     n = len(one)
     lab = np.where(np.arange(len(pts)) < n, np.where(pts[:, 1] < 0, 1, 3), 2).astype(np.int32)[None]  # dome 0 as objects 1 and 3
-    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], rng=0)
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_voxels=100, rng=0)
     assert out[0].shape == lab.shape and out[0].dtype == lab.dtype
-    assert [m["ids"] for m in info["merges"]] == [[1, 3]] and info["merges"][0]["ncut"] >= 0.022
+    assert [m["ids"] for m in info["merges"]] == [[1, 3]] and info["merges"][0]["ncut"] > 0.05  # a dome's halves: far above 0.022
     assert info["mapping"].tolist() == [0, 1, 2, 1] and info["num_objects"] == 2
     assert out[0][0, :n].tolist() == [1] * n and out[0][0, n:].tolist() == [2] * len(other)
     assert lab.max() == 3  # input untouched
-    again, _ = merge_objects([lab], [pts[None]], [(None, EYE)], rng=0)
+    again, _ = merge_objects([lab], [pts[None]], [(None, EYE)], min_voxels=100, rng=0)
     assert np.array_equal(again[0], out[0])
-    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_ncut=np.inf, rng=0)  # never join
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_ncut=np.inf, min_voxels=100, rng=0)  # never join
     assert info["merges"] == [] and out[0].tolist() == lab.tolist() and out[0] is not lab
+
+
+def test_merge_objects_joins_a_chain_of_pieces_in_order_and_renames_every_view():
+    one = dome(0.0)
+    ang = np.arctan2(one[:, 1], one[:, 0])
+    thirds = np.digitize(ang, [-np.pi / 3, np.pi / 3])  # three wedges of one dome
+    lab = np.array([2, 5, 7])[thirds].astype(np.int64)[None]  # ids with gaps
+    blind = np.full((1, 4), 7, np.int64)  # a view without a camera: not measured, still renamed
+    out, info = merge_objects([lab, blind], [one[None], np.zeros((1, 4, 3))], [(None, EYE), (None, None)], min_voxels=100, rng=0)
+    assert len(info["merges"]) == 2 and np.unique(out[0]).tolist() == [2]
+    assert info["mapping"].tolist() == [0, 1, 2, 3, 4, 2, 5, 2] and info["num_objects"] == 5  # 6 (unused) moves down past the freed 5
+    assert out[1].tolist() == [[2, 2, 2, 2]] and out[1].dtype == np.int64
+
+
+def test_merge_objects_joins_one_surface_seen_under_two_ids():
+    one = dome(0.0)
+    views = [np.ones((1, len(one)), np.int32), np.full((1, len(one)), 2, np.int32)]  # the same points, another id in view 1
+    out, info = merge_objects(views, [one[None], one[None]], [(None, EYE)] * 2, min_voxels=100, rng=0)
+    assert [m["ids"] for m in info["merges"]] == [[1, 2]] and [np.unique(o).tolist() for o in out] == [[1], [1]]
 
 
 def test_merge_objects_keeps_two_touching_domes_apart():
     two = np.r_[dome(0.0), dome(0.1)]
     n = len(dome(0.0))
     lab = np.where(np.arange(len(two)) < n, 1, 2).astype(np.int32)[None]
-    out, info = merge_objects([lab], [two[None]], [(None, EYE)], rng=0)
-    assert info["merges"] == [] and out[0].tolist() == lab.tolist()  # the crease between them is a cut below 0.022
-    # each dome's cheapest cut costs more than the crease: with the threshold below the crease they would be joined
-    out, info = merge_objects([lab], [two[None]], [(None, EYE)], min_ncut=0.0, rng=0)
-    assert info["num_objects"] == 1 and np.unique(out[0]).tolist() == [1]
+    out, info = merge_objects([lab], [two[None]], [(None, EYE)], min_voxels=100, rng=0)
+    assert info["merges"] == [] and out[0].tolist() == lab.tolist()
+    _, info = merge_objects([lab], [two[None]], [(None, EYE)], min_ncut=0.0, min_voxels=100, rng=0)  # join anyway, to read the cost
+    assert info["merges"][0]["ncut"] < 0.012  # the crease between them: a cut the split would make
 
 
 def test_merge_objects_edge_cases():
@@ -239,10 +257,15 @@ def test_merge_objects_edge_cases():
     assert info["merges"] == [] and out[0].tolist() == lab.tolist()
     out, info = merge_objects([np.ones((1, 4), np.int32)], [np.full((1, 4, 3), np.nan)], [(None, EYE)])  # no points
     assert info == {"merges": [], "mapping": info["mapping"], "num_objects": 1} and info["mapping"].tolist() == [0, 1]
+    out, info = merge_objects([np.array([[1, 2, 2, 0]], np.int32)], [np.full((1, 4, 3), np.nan)], [(None, EYE)])  # two ids, no points
+    assert info["merges"] == [] and out[0].tolist() == [[1, 2, 2, 0]]
     small = np.where(one[:, 1] < -0.045, 2, 1).astype(np.int32)[None]  # object 2 has fewer than min_voxels voxels: left alone
-    assert merge_objects([small], [one[None]], [(None, EYE)], rng=0)[1]["merges"] == []
-    out, info = merge_objects([lab], [one[None]], [(None, EYE)], num_objects=4, rng=0)  # ids beyond the labels' largest move down too
+    assert merge_objects([small], [one[None]], [(None, EYE)], min_voxels=100, rng=0)[1]["merges"] == []
+    out, info = merge_objects([lab], [one[None]], [(None, EYE)], num_objects=4, min_voxels=100, rng=0)  # ids beyond the labels' largest move down too
     assert info["mapping"].tolist() == [0, 1, 1, 2, 3] and info["num_objects"] == 3
+    neg = np.where(np.arange(len(one)) < 5, -1, lab[0]).astype(np.int32)[None]  # labels <= 0 are kept
+    out, _ = merge_objects([neg], [one[None]], [(None, EYE)], min_voxels=100, rng=0)
+    assert out[0][0, :5].tolist() == [-1] * 5 and np.unique(out[0][0, 5:]).tolist() == [1]
     with pytest.raises(ValueError, match="same views"):
         merge_objects([lab], [], [])
     with pytest.raises(ValueError, match="min_ncut >= 0"):
@@ -260,7 +283,8 @@ def test_segment_joins_the_halves_of_a_box_that_no_match_connects():
     res = segment(scene, halves, exact_matches(scene), Config.model_validate(base))
     gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
     assert res.num_objects == 1 and evaluate(res.labels, gt, pts)["mean"]["iou"] > 0.97
-    assert [m["ids"] for m in res.info["split"]["merges"]] == [[1, 2]]
+    assert [m["ids"] for m in res.info["split"]["merges"]] == [[1, 2]] and res.info["split"]["merge_mapping"] == [0, 1, 1]
+    assert apart.info["split"]["merge_mapping"] is None and apart.info["split"]["merges"] == []
     assert res.mask_object.tolist() == [1] * 6 and np.unique(res.graphs[-1].node_attr["object"]).tolist() == [1]
     touching = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     kept = segment(touching, [[(v.instances == k) for k in (1, 2)] for v in touching.views], exact_matches(touching), Config.preset("rgbd"))
