@@ -142,9 +142,13 @@ class LiftedConfig(_Model):
     and ``split`` on top of :class:`SplitConfig`: by default estimated points
     never join objects (``merge_ncut`` None), since their smoothed surfaces make
     touching objects look like one body (the join lowered the tuning half of
-    ``bench_rgb_only.py`` from 0.686 to 0.659; ``docs/results.md``). Like
-    ``criteria``, a ``split`` given by the user replaces the whole default:
-    ``{"max_ncut": 0.02}`` alone turns the join back on for estimated points.
+    ``bench_rgb_only.py`` from 0.686 to 0.659), and they are split at cuts up
+    to ``max_ncut`` 0.025 instead of 0.012: the same smoothing makes the crease
+    between two touching objects cheaper to cross, so their cut costs more than
+    on measured depth (tuning half 0.686 -> 0.704; 0.015, 0.02 and 0.03 gave
+    0.689, 0.696 and 0.695; ``docs/results.md``). Like ``criteria``, a
+    ``split`` given by the user replaces the whole default: ``{"max_ncut":
+    0.02}`` alone turns the join back on for estimated points.
     ``preset`` (None by default) replaces the stages and the contractor with
     those of a preset before ``criteria`` apply. ``backend_options`` gives the
     segmenter and matcher that run on the estimated points their defaults; an
@@ -163,7 +167,8 @@ class LiftedConfig(_Model):
     )
     objects: dict[str, Any] = Field(default_factory=dict, description="ObjectConfig fields applied on top of the objects section")
     split: dict[str, Any] = Field(
-        default_factory=lambda: {"merge_ncut": None}, description="SplitConfig fields applied on top of the split section (default: estimated points never join objects)"
+        default_factory=lambda: {"merge_ncut": None, "max_ncut": 0.025},
+        description="SplitConfig fields applied on top of the split section (default: estimated points never join objects, and split at cuts up to 0.025)",
     )
     backend_options: dict[str, dict[str, Any]] = Field(
         default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options for estimated points (backends.options still wins)"

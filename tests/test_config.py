@@ -245,7 +245,11 @@ def test_lifted_points_get_their_own_criterion_options():
     off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "split": {}, "backend_options": {}})
     assert off.for_lifter("sfm") is off
     assert cfg.split.merge_ncut == 0.022 and sfm.split.merge_ncut is None  # estimated points never join objects
-    assert sfm.split.model_dump(exclude={"merge_ncut"}) == cfg.split.model_dump(exclude={"merge_ncut"})  # the rest of the split kept
+    assert cfg.split.max_ncut == 0.012 and sfm.split.max_ncut == 0.025  # estimated points split at dearer cuts
+    assert sfm.split.model_dump(exclude={"merge_ncut", "max_ncut"}) == cfg.split.model_dump(exclude={"merge_ncut", "max_ncut"})  # the rest kept
+    assert Config.preset("rgbd").split.max_ncut == 0.012  # the RGB-D preset is not touched
+    mine = Config.preset("rgbd", lifted={"split": {"max_ncut": 0.02}}).for_lifter("sfm").split
+    assert mine.max_ncut == 0.02 and mine.merge_ncut == 0.022  # the user's split replaces the whole default
     joins = Config.preset("rgbd", lifted={"split": {}}).for_lifter("sfm")
     assert joins.split == cfg.split
     with pytest.raises(ValidationError, match="merge_sen"):
