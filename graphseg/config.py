@@ -126,6 +126,10 @@ class ObjectConfig(_Model):
     merge_seen: bool = Field(True, description="a one-view object that the other views see as one object with full support joins it")
 
 
+#: ``LiftedConfig.split``'s default: estimated points never join objects, and split below 0.025.
+_DEFAULT_LIFTED_SPLIT: dict[str, Any] = {"merge_ncut": None, "max_ncut": 0.025}
+
+
 class LiftedConfig(_Model):
     """Criterion and object options for point maps that a lifter estimated from images (not measured depth).
 
@@ -142,13 +146,18 @@ class LiftedConfig(_Model):
     and ``split`` on top of :class:`SplitConfig`: by default estimated points
     never join objects (``merge_ncut`` None), since their smoothed surfaces make
     touching objects look like one body (the join lowered the tuning half of
-    ``bench_rgb_only.py`` from 0.686 to 0.659), and they are split at cuts up
-    to ``max_ncut`` 0.025 instead of 0.012: the same smoothing makes the crease
-    between two touching objects cheaper to cross, so their cut costs more than
-    on measured depth (tuning half 0.686 -> 0.704; 0.015, 0.02 and 0.03 gave
-    0.689, 0.696 and 0.695; ``docs/results.md``). Like ``criteria``, a
-    ``split`` given by the user replaces the whole default: ``{"max_ncut":
-    0.02}`` alone turns the join back on for estimated points.
+    ``bench_rgb_only.py`` from 0.686 to 0.659), and they are split at cuts
+    below ``max_ncut`` 0.025 instead of 0.012. The likely reason: the same
+    smoothing makes the crease between two touching objects shallower, so the
+    convexity graph links strongly across it and the cut between them costs
+    more than on measured depth (tuning half 0.686 -> 0.704; 0.015, 0.02 and
+    0.03 gave 0.689, 0.696 and 0.695; measured with ``sfm`` only;
+    ``docs/results.md``). This default yields to the ``split`` section: a
+    field the user changed there from its :class:`SplitConfig` default (say
+    ``split.max_ncut``) keeps the user's value for estimated points too. A
+    ``lifted.split`` given by the user replaces the whole default and goes on
+    top of ``split``: ``{"max_ncut": 0.02}`` alone turns the join back on for
+    estimated points.
     ``preset`` (None by default) replaces the stages and the contractor with
     those of a preset before ``criteria`` apply. ``backend_options`` gives the
     segmenter and matcher that run on the estimated points their defaults; an
@@ -167,8 +176,8 @@ class LiftedConfig(_Model):
     )
     objects: dict[str, Any] = Field(default_factory=dict, description="ObjectConfig fields applied on top of the objects section")
     split: dict[str, Any] = Field(
-        default_factory=lambda: {"merge_ncut": None, "max_ncut": 0.025},
-        description="SplitConfig fields applied on top of the split section (default: estimated points never join objects, and split at cuts up to 0.025)",
+        default_factory=lambda: dict(_DEFAULT_LIFTED_SPLIT),
+        description="SplitConfig fields applied on top of the split section (default: estimated points never join objects, and split below 0.025, unless the split section changed those fields)",
     )
     backend_options: dict[str, dict[str, Any]] = Field(
         default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options for estimated points (backends.options still wins)"
@@ -590,7 +599,11 @@ class Config(_Model):
         over = lf.criteria
         stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in base.stages]
         objects = ObjectConfig.model_validate({**self.objects.model_dump(), **lf.objects})
-        split = SplitConfig.model_validate({**self.split.model_dump(), **lf.split})
+        split_over = dict(lf.split)
+        if split_over == _DEFAULT_LIFTED_SPLIT:  # the built-in default yields to split options the user changed
+            plain = SplitConfig()
+            split_over = {k: v for k, v in split_over.items() if getattr(self.split, k) == getattr(plain, k)}
+        split = SplitConfig.model_validate({**self.split.model_dump(), **split_over})
         options = {**self.backends.options, **{k: {**v, **self.backends.options.get(k, {})} for k, v in lf.backend_options.items()}}
         return base.model_copy(
             update={
