@@ -22,7 +22,39 @@ from ..imaging import gray
 from ..options import Backend
 from .sampling import MatcherOptions, subsample_matches
 
-__all__ = ["sift_matches", "SiftMatcher"]
+__all__ = ["epipolar_inliers", "sift_matches", "SiftMatcher"]
+
+
+def epipolar_inliers(pts_i: np.ndarray, pts_j: np.ndarray, *, threshold: float) -> np.ndarray | None:
+    """Inliers of a fundamental matrix fitted by ``cv2.USAC_MAGSAC``, or None when no model is found.
+
+    Parameters
+    ----------
+    pts_i, pts_j : float32 ``[N, 2]``
+        Matched pixels (x, y), ``N >= 8``.
+    threshold : float, keyword-only
+        Pixels; the epipolar distance of an inlier.
+
+    Returns
+    -------
+    bool ``[N]`` or None
+        None also where OpenCV fails an assertion on a degenerate set (for
+        example most matches landing on one pixel of a plain surface) instead
+        of returning no model.
+
+    Examples
+    --------
+    >>> g = np.random.default_rng(0).uniform(0, 100, (20, 2)).astype(np.float32)
+    >>> epipolar_inliers(g, g + np.float32([5, 0]), threshold=1.0).all()
+    np.True_
+    """
+    import cv2
+
+    try:
+        _, inl = cv2.findFundamentalMat(pts_i, pts_j, cv2.USAC_MAGSAC, threshold, 0.999, 10000)
+    except cv2.error:
+        return None
+    return None if inl is None else inl.ravel().astype(bool)
 
 
 def sift_matches(view_i: View, view_j: View, *, ratio: float, ransac_threshold: float) -> Matches:
@@ -42,7 +74,8 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float, ransac_threshold: 
     Returns
     -------
     Matches
-        Empty when fewer than 8 matches pass the ratio test.
+        Empty when fewer than 8 matches pass the ratio test, or when no
+        fundamental matrix is found (:func:`epipolar_inliers`).
 
     Notes
     -----
@@ -63,10 +96,9 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float, ransac_threshold: 
     pi = np.array([ki[m.queryIdx].pt for m in good], np.float32)
     pj = np.array([kj[m.trainIdx].pt for m in good], np.float32)
     dist = np.array([m.distance for m in good], np.float32)
-    _, inl = cv2.findFundamentalMat(pi, pj, cv2.USAC_MAGSAC, ransac_threshold, 0.999, 10000)
-    if inl is None:
+    keep = epipolar_inliers(pi, pj, threshold=ransac_threshold)
+    if keep is None:
         return empty
-    keep = inl.ravel().astype(bool)
     cert = 1.0 - dist[keep] / max(float(dist.max()), 1e-6)
     return Matches(pi[keep], pj[keep], np.clip(cert, 1e-3, 1.0))
 
