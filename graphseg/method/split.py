@@ -575,8 +575,8 @@ def merge_objects(
         view, _, _, P, obj, _, centre = got
         # which objects touch: voxels of one grid, each owned by the object with most of its points
         centres, inverse, _ = voxelize(P, voxel_size)
-        key, count = np.unique(inverse * (top + 1) + obj, return_counts=True)  # sorted by voxel, then object
-        vox, lab = key // (top + 1), key % (top + 1)
+        cells = group_by_key(combine_keys([inverse, obj], [centres.shape[0], top + 1]))  # (voxel, object) pairs, by voxel, then object
+        vox, lab, count = inverse[cells.first], obj[cells.first], cells.counts
         big = np.bincount(lab, minlength=top + 1) >= min_voxels  # objects with points in at least min_voxels voxels
         best = np.lexsort((-count, vox))
         first = np.r_[True, vox[best][1:] != vox[best][:-1]]
@@ -609,7 +609,8 @@ def merge_objects(
             merges.append({"ids": [a_, b_], "ncut": float(nc) if np.isfinite(nc) else None})
             members[a_] = np.r_[members[a_], members.pop(b_)]
             mapping[mapping == b_] = a_
-            pairs = {(min(x if x != b_ else a_, y if y != b_ else a_), max(x if x != b_ else a_, y if y != b_ else a_)) for x, y in pairs} - {(a_, a_)}
+            renamed = ((a_ if x == b_ else x, a_ if y == b_ else y) for x, y in pairs)
+            pairs = {(min(x, y), max(x, y)) for x, y in renamed if x != y}
             cost = {k: v for k, v in cost.items() if a_ not in k and b_ not in k}
     if merges:
         freed = np.zeros(top + 1, np.int64)
