@@ -20,7 +20,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-__all__ = ["fit_plane_ransac", "fit_table_plane", "point_normals", "TablePlaneSettings", "pose_distance", "scene_scale", "select_pairs"]
+__all__ = ["fit_plane_ransac", "fit_table_plane", "point_normals", "project_points", "TablePlaneSettings", "pose_distance", "scene_scale", "select_pairs"]
 
 
 class TablePlaneSettings(Protocol):
@@ -65,6 +65,56 @@ def point_normals(points: np.ndarray, step: int = 2) -> np.ndarray:
         with np.errstate(invalid="ignore", divide="ignore"):
             out[step:-step, step:-step] = n / norm
     return out
+
+
+def project_points(points: np.ndarray, K: np.ndarray, cam_to_world: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where world points land in a pinhole view.
+
+    Parameters
+    ----------
+    points : float ``[N, 3]``
+        World points.
+    K : float ``[3, 3]``; cam_to_world : float ``[4, 4]``
+        The view's camera (pixel centres at integers).
+    shape : (H, W)
+        The image size.
+
+    Returns
+    -------
+    u, v : int64 ``[N]``
+        Pixel column and row (rounded); -1 where the point is behind the camera.
+    z : float64 ``[N]``
+        Camera depth.
+    ok : bool ``[N]``
+        In front of the camera and inside ``[0, W) x [0, H)``.
+
+    Notes
+    -----
+    O(N).
+
+    Examples
+    --------
+    >>> K = np.array([[10.0, 0, 2], [0, 10, 2], [0, 0, 1]])
+    >>> u, v, z, ok = project_points(np.array([[0.1, 0, 1], [0, 0, -1]]), K, np.eye(4), (5, 5))
+    >>> u.tolist(), v.tolist(), z.tolist(), ok.tolist()
+    ([3, -1], [2, -1], [1.0, -1.0], [True, False])
+    """
+    T = np.asarray(cam_to_world, np.float64)
+    K = np.asarray(K, np.float64)
+    R = T[:3, :3]
+    q = np.asarray(points, np.float64).reshape(-1, 3) - T[:3, 3]
+    x, y, z = (q[:, 0] * R[0, k] + q[:, 1] * R[1, k] + q[:, 2] * R[2, k] for k in range(3))  # (P - t) @ R by columns: 2-3x faster for [N, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = K[0, 0] * x / z + K[0, 2]
+        v = K[1, 1] * y / z + K[1, 2]
+    h, w = shape
+    ok = np.isfinite(u) & np.isfinite(v) & (z > 1e-9)
+    ui = np.full(len(z), -1, np.int64)
+    vi = np.full(len(z), -1, np.int64)
+    ui[ok] = np.rint(u[ok]).astype(np.int64)
+    vi[ok] = np.rint(v[ok]).astype(np.int64)
+    ok &= (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
+    return ui, vi, z, ok
 
 
 def fit_plane_ransac(

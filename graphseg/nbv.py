@@ -66,6 +66,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .geometry import project_points
 from .graphs import CorrespondenceGraph, directed_chamfer, node_point_sets
 from .result import Result
 from .scene import Scene, SceneError, is_rigid
@@ -152,38 +153,20 @@ class ViewScore:
 
 
 # ----------------------------------------------------------------------------- geometry
-def _project(P: np.ndarray, K: np.ndarray, T: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Pixel columns, rows (rounded), camera depth and "in front and inside the image" of world points ``[N, 3]``."""
-    T = np.asarray(T, np.float64)
-    cam = (np.asarray(P, np.float64) - T[:3, 3]) @ T[:3, :3]
-    z = cam[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = K[0, 0] * cam[:, 0] / z + K[0, 2]
-        v = K[1, 1] * cam[:, 1] / z + K[1, 2]
-    h, w = shape
-    ok = np.isfinite(u) & np.isfinite(v) & (z > 1e-9)
-    ui = np.full(len(z), -1, np.int64)
-    vi = np.full(len(z), -1, np.int64)
-    ui[ok] = np.rint(u[ok]).astype(np.int64)
-    vi[ok] = np.rint(v[ok]).astype(np.int64)
-    ok &= (ui >= 0) & (ui < w) & (vi >= 0) & (vi < h)
-    return ui, vi, z, ok
-
-
 def _zbuffer(points: np.ndarray, K: np.ndarray, T: np.ndarray, shape: tuple[int, int], cell: int) -> np.ndarray:
     """Nearest depth per ``cell x cell`` block of the image (inf where no point lands)."""
     h, w = shape
     gh, gw = -(-h // cell), -(-w // cell)
     zb = np.full(gh * gw, np.inf)
     if len(points):
-        u, v, z, ok = _project(points, K, T, shape)
+        u, v, z, ok = project_points(points, K, T, shape)
         np.minimum.at(zb, (v[ok] // cell) * gw + u[ok] // cell, z[ok])
     return zb.reshape(gh, gw)
 
 
 def _visible(points: np.ndarray, K: np.ndarray, T: np.ndarray, shape: tuple[int, int], zb: np.ndarray, cell: int, tol: float = 0.03) -> np.ndarray:
     """Which world points ``[N, 3]`` a camera sees: inside its image and not behind the z-buffer (bool ``[N]``)."""
-    u, v, z, ok = _project(points, K, T, shape)
+    u, v, z, ok = project_points(points, K, T, shape)
     out = np.zeros(len(z), bool)
     out[ok] = z[ok] <= zb[v[ok] // cell, u[ok] // cell] * (1 + tol)
     return out
@@ -606,7 +589,7 @@ def unseen_table_cells(scene: Scene, result: Result, *, cells: int = 30, tol: fl
     centres = foot + gx[inside][:, None] * a + gy[inside][:, None] * b
     seen = np.zeros(len(centres), bool)
     for v in scene.views:
-        u, r, _, ok = _project(centres, np.asarray(v.K, np.float64), np.asarray(v.cam_to_world, np.float64), v.shape)
+        u, r, _, ok = project_points(centres, np.asarray(v.K, np.float64), np.asarray(v.cam_to_world, np.float64), v.shape)
         if not ok.any():
             continue
         cam = v.camera_center

@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from graphseg.geometry import point_normals
+from graphseg.geometry import point_normals, project_points
 
 
 def reference_normals(p, step):
@@ -64,3 +64,16 @@ def test_point_normals_bad_input():
         point_normals(np.zeros((4, 5)))
     with pytest.raises(ValueError, match=r"expected step >= 1 \(got 0\)"):
         point_normals(np.zeros((4, 5, 3)), 0)
+
+
+def test_project_points_shape_values_and_edges():
+    K = np.array([[100.0, 0, 49.5], [0, 100, 29.5], [0, 0, 1]])
+    T = np.eye(4)
+    T[:3, 3] = [0.0, 0.0, -1.0]  # camera 1 m behind the origin, looking along +z
+    P = np.array([[0.0, 0.0, 1.0], [0.1, -0.2, 1.0], [0.0, 0.0, -2.0], [5.0, 0.0, 0.0], [np.nan, 0, 0]])
+    u, v, z, ok = project_points(P, K, T, (60, 100))
+    assert u.dtype == v.dtype == np.int64 and u.shape == v.shape == z.shape == ok.shape == (5,)
+    # (0, 0, 1) is 2 m ahead: centre; (0.1, -0.2, 1): 100 * 0.05 = 5 px right, 10 px up
+    assert (u[0], v[0], u[1], v[1]) == (50, 30, 54, 20) and z[:2].tolist() == [2.0, 2.0]
+    assert ok.tolist() == [True, True, False, False, False]  # behind, outside (u = 49.5 + 500), NaN
+    assert u[2] == -1 and v[2] == -1 and z[2] == -1.0

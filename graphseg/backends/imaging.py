@@ -1,4 +1,4 @@
-"""Image helpers shared by the backends of every kind: a view's uint8 RGB, grey, ImageNet normalisation.
+"""Image helpers shared by the backends of every kind: a view's uint8 RGB, grey, ImageNet normalisation, CIE Lab.
 
 The model adapters (``sam2``, ``loftr``, ``roma``, ``dinov2``, ``da3``) read a
 view's colour image with :func:`view_rgb` and normalise it with
@@ -22,7 +22,7 @@ import numpy as np
 
 from ..scene import SceneError, View
 
-__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "view_rgb", "gray"]
+__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "view_rgb", "gray", "to_lab"]
 
 #: Per-channel RGB mean and standard deviation (0..1 scale) of ImageNet, as the models were trained.
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -48,3 +48,22 @@ def gray(rgb: np.ndarray) -> np.ndarray:
     import cv2
 
     return cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2GRAY)
+
+
+def to_lab(rgb: np.ndarray, blur: float = 0.0) -> np.ndarray:
+    """uint8 RGB ``[H, W, 3]`` -> uint8 CIE Lab ``[H, W, 3]`` (OpenCV's 8-bit scaling), after a Gaussian blur of ``blur`` pixels (0: none).
+
+    The colour tests of the ``reprojection`` matcher and of the ``sfm``
+    lifter's point transfer compare these. O(H W).
+
+    Examples
+    --------
+    >>> to_lab(np.full((2, 2, 3), 255, np.uint8))[0, 0].tolist()
+    [255, 128, 128]
+    """
+    import cv2
+
+    im = np.ascontiguousarray(rgb, dtype=np.uint8)
+    if blur > 0:
+        im = np.asarray(cv2.GaussianBlur(im, (0, 0), blur))
+    return np.asarray(cv2.cvtColor(im, cv2.COLOR_RGB2LAB))

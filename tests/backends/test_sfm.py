@@ -229,3 +229,26 @@ def test_photos_of_a_four_object_scene_give_four_objects(tmp_path, capsys):
     m = evaluate(result.labels, [v.instances for v in scene.views], gt_points)
     assert m["num_pred"] == result.num_objects and m["mean"]["pq"] > 0.5
     assert "fragments below the minimum support" in capsys.readouterr().out
+
+
+def test_transfer_lifts_more_pixels_with_the_same_accuracy(arc_scene):
+    """Points other views measured fill pixels a view's own stereo left empty; their depth is as good."""
+    bare = Scene([v.replace(depth=None) for v in arc_scene.views], arc_scene.objects, arc_scene.name)
+    lifter = SfmLifter(fill=False, sparse_radius=0)
+    rec, scale = lifter.reconstruct(bare)
+    on = lifter.point_maps(bare, rec, scale)
+    off = SfmLifter(fill=False, sparse_radius=0, transfer=False).point_maps(bare, rec, scale)
+    assert "transferred_fraction" in on.meta["sfm"] and "transferred_fraction" not in off.meta["sfm"]
+    gained = []
+    for a, b, g in zip(on.views, off.views, arc_scene.views):
+        za, zb = a.camera_points()[..., 2], b.camera_points()[..., 2]
+        new = np.isfinite(za) & ~np.isfinite(zb) & (g.depth > 0)
+        assert not (np.isfinite(zb) & ~np.isfinite(za)).any()  # nothing lost
+        both = np.isfinite(zb)
+        assert np.mean(za[both] == zb[both]) > 0.95  # its own stereo kept (a triangulated seed may give way to a transferred point)
+        assert (a.confidence[new] == 0.5).all()
+        gained.append(new.mean())
+        if new.sum() > 50:
+            assert np.median(np.abs(za[new] - g.depth[new]) / g.depth[new]) < 0.02
+    assert sum(gained) / len(gained) > 0.01
+    assert sum(on.meta["sfm"]["transferred_fraction"]) == pytest.approx(sum(gained), rel=0.5)

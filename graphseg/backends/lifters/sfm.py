@@ -486,6 +486,20 @@ class SfmLifter(Backend):
         becomes part of the confidence. Off by default: on the tuning half of
         ``bench_rgb_only.py`` it left the mean IoU unchanged (0.582) and cost
         2-15 s per scene (``docs/results.md``).
+    transfer : bool
+        A pixel its own stereo left empty takes the nearest point another view
+        measured there, when that surface faces this camera and the colours
+        agree (:func:`graphseg.backends.lifters.transfer.transfer_points`;
+        confidence 0.5). It runs before the triangulated points and the fill,
+        so the fill's planes fit these measured points too. On by default:
+        measured on the tuning half of ``bench_rgb_only.py`` (``docs/results.md``,
+        round 12).
+    transfer_min_confidence : float
+        Stereo confidence a point needs to be transferred.
+    transfer_color_distance : float, optional
+        CIE Lab distance (after a 2-pixel blur) above which the nearest point
+        is refused, so a point hidden behind a surface without depth is not
+        taken (None: no colour test).
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     seed : int
@@ -507,6 +521,9 @@ class SfmLifter(Backend):
         fill_confidence: float = Field(0.25, ge=0, description="confidence of pixels only the fill gave a point")
         seed: int | None = Field(0, ge=0, description="COLMAP's random seed (None: 0)")
         consistency: bool = Field(False, description="check every stereo point against the neighbour views")
+        transfer: bool = Field(True, description="give a pixel its own stereo left empty the point another view measured there")
+        transfer_min_confidence: float = Field(0.5, ge=0, description="stereo confidence a point needs to be transferred")
+        transfer_color_distance: float | None = Field(30.0, gt=0, description="CIE Lab distance above which a transferred point is refused (None: no colour test)")
         camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
 
         @field_validator("camera_model")
@@ -574,6 +591,13 @@ class SfmLifter(Backend):
             pts, conf, info = stereo_depths(rgb, Ks, dists, poses, max_pair_angle=o.max_pair_angle, max_neighbours=o.max_neighbours, depth_ranges=ranges)
             if o.consistency:
                 pts, conf, info["inconsistent"] = _consistent(pts, conf, rgb, Ks, poses, select_neighbours(poses, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours))
+            if o.transfer:
+                from .transfer import transfer_points
+
+                pts, conf, added = transfer_points(
+                    pts, conf, rgb, Ks, poses, min_confidence=o.transfer_min_confidence, max_color_distance=o.transfer_color_distance, color_blur=2.0, confidence_out=0.5
+                )
+                info["transferred_fraction"] = [round(a, 4) for a in added]
         else:
             pts = [np.full((h, w, 3), np.nan, np.float32) for _ in rgb]
             conf = [np.zeros((h, w), np.float32) for _ in rgb]

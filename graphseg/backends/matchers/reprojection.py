@@ -28,7 +28,7 @@ import numpy as np
 from pydantic import Field
 
 from ...scene import Matches, SceneError, View
-from ..imaging import view_rgb
+from ..imaging import to_lab, view_rgb
 from ..options import Backend
 from .sampling import MatcherOptions, subsample_matches
 
@@ -127,12 +127,7 @@ def reprojection_matches(
 
 def lab_image(view: View, blur: float) -> np.ndarray:
     """The view's image in CIE Lab, uint8 ``[H, W, 3]`` (OpenCV's 8-bit scaling), after a Gaussian blur of ``blur`` pixels (0: none). O(H W)."""
-    import cv2
-
-    im: np.ndarray = np.ascontiguousarray(view_rgb(view), dtype=np.uint8)
-    if blur > 0:
-        im = np.asarray(cv2.GaussianBlur(im, (0, 0), blur))
-    return np.asarray(cv2.cvtColor(im, cv2.COLOR_RGB2LAB))
+    return to_lab(view_rgb(view), blur)
 
 
 class ReprojectionMatcher(Backend):
