@@ -11,7 +11,8 @@ nearest point that lands on it (a z-buffer), when
   cameras on the same side of the surface, so the back of an object seen by
   a view across the ring is never taken for its front, and
 * the colours agree: the source pixel and the target pixel differ by at most
-  ``max_color_distance`` in CIE Lab, so a point hidden behind a surface that
+  ``max_color_distance`` in CIE Lab (OpenCV's 8-bit scaling, L times 2.55),
+  so a point hidden behind a surface that
   has no depth of its own (an occluder) is not taken either.
 
 When the nearest point fails either test the pixel stays empty; points
@@ -85,8 +86,8 @@ def transfer_points(
         Confidence given to a transferred point.
     normal_step : int
         Pixel step of the source normals (:func:`graphseg.geometry.point_normals`);
-        points without a normal (at depth edges and the image border) are not
-        transferred.
+        points without a normal (next to empty pixels and at the image border)
+        are not transferred.
 
     Returns
     -------
@@ -99,14 +100,22 @@ def transfer_points(
     Notes
     -----
     O(V^2 H W) for V views: every view's points are projected into every
-    other view; the nearest point per pixel comes from one sort. About
+    other view; the nearest point per pixel comes from one sort. The
+    projection is pinhole: lens distortion (``sfm`` camera models other than
+    the default ``SIMPLE_PINHOLE``) is ignored here. About
     0.3 s per view for 8 views at 640 x 480 on one core.
     """
     n = len(points)
     if not (len(confidence) == len(images) == len(Ks) == len(poses) == n):
         raise ValueError(f"expected one confidence, image, K and pose per point map (got {n} point maps, {len(confidence)}, {len(images)}, {len(Ks)}, {len(poses)})")
-    out_p = [np.array(p, np.float32, copy=True) for p in points]
-    out_c = [np.array(c, np.float32, copy=True) for c in confidence]
+    out_p = [np.array(p, np.float32, copy=True, order="C") for p in points]  # C order: the writes below go through reshape views
+    out_c = [np.array(c, np.float32, copy=True, order="C") for c in confidence]
+    for j in range(n):
+        if out_p[j].ndim != 3 or out_p[j].shape[2] != 3 or out_c[j].shape != out_p[j].shape[:2] or np.shape(images[j])[:2] != out_p[j].shape[:2]:
+            raise ValueError(
+                f"view {j}: expected points [H, W, 3] with confidence [H, W] and an image [H, W, 3] of the same size "
+                f"(got {list(out_p[j].shape)}, {list(out_c[j].shape)} and {list(np.shape(images[j]))})"
+            )
     if n < 2:
         return out_p, out_c, [0.0] * n
     labs = [to_lab(im, color_blur) for im in images] if max_color_distance is not None else []
@@ -132,7 +141,7 @@ def transfer_points(
         if not empty.any():
             added.append(0.0)
             continue
-        # candidates: points of the other views that face camera i and land on one of its empty pixels
+        # candidates: points of the other views that land on one of camera i's empty pixels
         cand_pix, cand_z, cand_src, cand_idx = [], [], [], []
         for j in range(n):
             if j == i or not len(src_x[j]):
@@ -142,7 +151,6 @@ def transfer_points(
             pix = v * w + u
             ok[ok] &= empty[pix[ok]]
             k = np.flatnonzero(ok)
-            k = k[np.einsum("ij,ij->i", centres[i] - X[k], N[k]) > 0]  # the surface faces camera i
             cand_pix.append(pix[k])
             cand_z.append(z[k])
             cand_src.append(np.full(k.size, j))
@@ -156,16 +164,18 @@ def transfer_points(
         first = np.r_[True, pix[order][1:] != pix[order][:-1]] if order.size else np.zeros(0, bool)
         win = order[first]
         X = np.empty((win.size, 3))
+        N = np.empty((win.size, 3))
         colour = np.empty((win.size, 3), np.float32)
         for j in np.unique(src[win]):
             at = src[win] == j
             X[at] = src_x[j][idx[win[at]]]
+            N[at] = src_n[j][idx[win[at]]]
             if labs:
                 colour[at] = src_lab[j][idx[win[at]]]
+        keep = np.einsum("ij,ij->i", centres[i] - X, N) > 0  # the nearest surface faces camera i
         if labs:
-            d = np.linalg.norm(colour - labs[i].reshape(-1, 3)[pix[win]].astype(np.float32), axis=1)
-            keep = d <= max_color_distance
-            win, X = win[keep], X[keep]
+            keep &= np.linalg.norm(colour - labs[i].reshape(-1, 3)[pix[win]].astype(np.float32), axis=1) <= max_color_distance
+        win, X = win[keep], X[keep]
         out_p[i].reshape(-1, 3)[pix[win]] = X.astype(np.float32)
         out_c[i].reshape(-1)[pix[win]] = confidence_out
         added.append(float(win.size / (h * w)))
