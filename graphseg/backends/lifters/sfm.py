@@ -497,9 +497,9 @@ class SfmLifter(Backend):
     transfer_min_confidence : float
         Stereo confidence a point needs to be transferred.
     transfer_color_distance : float, optional
-        CIE Lab distance (after a 2-pixel blur) above which the nearest point
-        is refused, so a point hidden behind a surface without depth is not
-        taken (None: no colour test).
+        CIE Lab distance (OpenCV's 8-bit scaling, after a 2-pixel blur) above
+        which the nearest point is refused, so a point hidden behind a surface
+        without depth is not taken (None: no colour test).
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     seed : int
