@@ -75,7 +75,7 @@ def project_points(points: np.ndarray, K: np.ndarray, cam_to_world: np.ndarray, 
     points : float ``[N, 3]``
         World points.
     K : float ``[3, 3]``; cam_to_world : float ``[4, 4]``
-        The view's camera (pixel centres at integers).
+        The view's camera (pixel centres at integers; a skew ``K[0, 1]`` is applied).
     shape : (H, W)
         The image size.
 
@@ -105,7 +105,7 @@ def project_points(points: np.ndarray, K: np.ndarray, cam_to_world: np.ndarray, 
     q = np.asarray(points, np.float64).reshape(-1, 3) - T[:3, 3]
     x, y, z = (q[:, 0] * R[0, k] + q[:, 1] * R[1, k] + q[:, 2] * R[2, k] for k in range(3))  # (P - t) @ R by columns: 2-3x faster for [N, 3]
     with np.errstate(divide="ignore", invalid="ignore"):
-        u = K[0, 0] * x / z + K[0, 2]
+        u = K[0, 0] * x / z + K[0, 1] * y / z + K[0, 2]
         v = K[1, 1] * y / z + K[1, 2]
     h, w = shape
     ok = np.isfinite(u) & np.isfinite(v) & (z > 1e-9)

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry import project_points
+
 __all__ = ["project_to_view", "refine_labels"]
 
 
@@ -65,24 +67,12 @@ def project_to_view(
     >>> seen.tolist(), int(v[0]), int(u[0])
     ([True, False], 2, 2)
     """
-    P = np.asarray(pts, np.float64).reshape(-1, 3)
     T = np.asarray(cam_to_world, np.float64)
-    R, t = T[:3, :3], T[:3, 3]
-    cam = (P - t) @ R
-    z = cam[:, 2]
-    h, w = points.shape[:2]
-    uvw = cam @ np.asarray(K, np.float64).T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uf = uvw[:, 0] / uvw[:, 2]
-        vf = uvw[:, 1] / uvw[:, 2]
-    ok = (z > 0) & np.isfinite(uf) & np.isfinite(vf)
-    u = np.where(ok, np.rint(np.where(ok, uf, 0)), -1).astype(np.int64)
-    v = np.where(ok, np.rint(np.where(ok, vf, 0)), -1).astype(np.int64)
-    ok &= (u >= 0) & (u < w) & (v >= 0) & (v < h)
-    seen = np.zeros(len(P), bool)
+    u, v, z, ok = project_points(pts, K, T, points.shape[:2])
+    seen = np.zeros(len(z), bool)
     if ok.any():
         q = np.asarray(points[v[ok], u[ok]], np.float64)
-        zq = (q - t) @ R[:, 2]
+        zq = (q - T[:3, 3]) @ T[:3, 2]
         seen[ok] = np.abs(zq - z[ok]) <= tolerance * z[ok]  # NaN (invalid pixel) compares False
     return seen, v, u
 

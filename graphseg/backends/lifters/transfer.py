@@ -120,10 +120,9 @@ def transfer_points(
         return out_p, out_c, [0.0] * n
     labs = [to_lab(im, color_blur) for im in images] if max_color_distance is not None else []
     centres = [np.asarray(T, np.float64)[:3, 3] for T in poses]
-    # the sources: confident points with a normal, oriented towards the camera that measured them
-    src_x: list[np.ndarray] = []
-    src_n: list[np.ndarray] = []
-    src_lab: list[np.ndarray] = []
+    # the sources: confident points with a normal, oriented towards the camera that measured them;
+    # all views' sources in one array, view j's at rows start[j]:start[j + 1]
+    src_x, src_n, src_lab = [], [], []
     for j in range(n):
         P = out_p[j]
         nrm = point_normals(P, normal_step)
@@ -133,7 +132,11 @@ def transfer_points(
         N *= np.where(np.einsum("ij,ij->i", centres[j] - X, N) < 0, -1.0, 1.0)[:, None]
         src_x.append(X)
         src_n.append(N)
-        src_lab.append(labs[j][ok] if labs else np.zeros((0, 3), np.uint8))
+        if labs:
+            src_lab.append(labs[j][ok].astype(np.float32))
+    start = np.r_[0, np.cumsum([len(x) for x in src_x])]
+    all_x, all_n = np.concatenate(src_x), np.concatenate(src_n)
+    all_lab = np.concatenate(src_lab) if labs else None
     added = []
     for i in range(n):
         h, w = out_p[i].shape[:2]
@@ -142,39 +145,29 @@ def transfer_points(
             added.append(0.0)
             continue
         # candidates: points of the other views that land on one of camera i's empty pixels
-        cand_pix, cand_z, cand_src, cand_idx = [], [], [], []
+        cand_pix, cand_z, cand_row = [], [], []
         for j in range(n):
-            if j == i or not len(src_x[j]):
+            if j == i or start[j] == start[j + 1]:
                 continue
-            X, N = src_x[j], src_n[j]
-            u, v, z, ok = project_points(X, Ks[i], poses[i], (h, w))
+            u, v, z, ok = project_points(src_x[j], Ks[i], poses[i], (h, w))
             pix = v * w + u
             ok[ok] &= empty[pix[ok]]
             k = np.flatnonzero(ok)
             cand_pix.append(pix[k])
             cand_z.append(z[k])
-            cand_src.append(np.full(k.size, j))
-            cand_idx.append(k)
+            cand_row.append(start[j] + k)
         if not cand_pix:
             added.append(0.0)
             continue
-        pix, z, src, idx = (np.concatenate(a) for a in (cand_pix, cand_z, cand_src, cand_idx))
+        pix, z, row = (np.concatenate(a) for a in (cand_pix, cand_z, cand_row))
         # the nearest point per pixel: sort by pixel, then depth; the first of each pixel wins
         order = np.lexsort((z, pix))
         first = np.r_[True, pix[order][1:] != pix[order][:-1]] if order.size else np.zeros(0, bool)
         win = order[first]
-        X = np.empty((win.size, 3))
-        N = np.empty((win.size, 3))
-        colour = np.empty((win.size, 3), np.float32)
-        for j in np.unique(src[win]):
-            at = src[win] == j
-            X[at] = src_x[j][idx[win[at]]]
-            N[at] = src_n[j][idx[win[at]]]
-            if labs:
-                colour[at] = src_lab[j][idx[win[at]]]
-        keep = np.einsum("ij,ij->i", centres[i] - X, N) > 0  # the nearest surface faces camera i
-        if labs:
-            keep &= np.linalg.norm(colour - labs[i].reshape(-1, 3)[pix[win]].astype(np.float32), axis=1) <= max_color_distance
+        X = all_x[row[win]]
+        keep = np.einsum("ij,ij->i", centres[i] - X, all_n[row[win]]) > 0  # the nearest surface faces camera i
+        if all_lab is not None:
+            keep &= np.linalg.norm(all_lab[row[win]] - labs[i].reshape(-1, 3)[pix[win]].astype(np.float32), axis=1) <= max_color_distance
         win, X = win[keep], X[keep]
         out_p[i].reshape(-1, 3)[pix[win]] = X.astype(np.float32)
         out_c[i].reshape(-1)[pix[win]] = confidence_out
