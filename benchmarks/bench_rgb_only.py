@@ -39,7 +39,11 @@ Measures (per scene)
     precision, PQ and predicted / true objects (:func:`graphseg.metrics.evaluate`
     on the *true* point maps for both runs: every pixel with true depth counts,
     so missing RGB-only points cannot flatter the score); seconds per stage (wall),
-    total seconds, CPU seconds of the process (all threads), peak RSS.
+    total seconds, CPU seconds of the process (all threads), peak RSS; where the
+    loss is (:func:`graphseg.audit.loss_breakdown`, both runs): the shares of the
+    object pixels with no point, in the background class, in no mask, in a
+    dropped object and labelled, the masks' majority grouping and the IoU with
+    every final object mapped to its majority object.
 
 Summary
     Per half (tune, check, all) and per group (arcs, rings, 10-view rings, each
@@ -137,6 +141,15 @@ def _quality(labels, inst, gt_pts, names) -> dict[str, Any]:
     return out
 
 
+def _breakdown(result, scene, points, eval_points) -> dict[str, Any]:
+    """:func:`graphseg.audit.loss_breakdown` of a run over its own views (matched to the scene's by name)."""
+    from graphseg.audit import loss_breakdown
+
+    inst = {v.name: v.instances for v in scene.views}
+    names = result.view_names
+    return loss_breakdown(result, [inst[n] for n in names], points, eval_points=[eval_points[n] for n in names])
+
+
 def _load_input(task: dict):
     from graphseg.io import load_scene
 
@@ -171,6 +184,7 @@ def one(task: dict) -> dict:
         out["total_s"] = time.perf_counter() - t0
         out["cpu_s"] = time.process_time() - c0
         out.update(_quality(result.labels, inst, gt_pts, scene.objects))
+        out["breakdown"] = _breakdown(result, scene, gt_pts, {v.name: p for v, p in zip(scene.views, gt_pts)})
         out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         return out
     inp = rgb_only(scene, keep_intrinsics=mode == "nodepth")
@@ -199,6 +213,7 @@ def one(task: dict) -> dict:
     at = {v.name: i for i, v in enumerate(lifted.views)}
     labels = [result.labels[at[v.name]] if v.name in at else np.zeros(v.shape, np.int32) for v in scene.views]
     out.update(_quality(labels, inst, gt_pts, scene.objects))
+    out["breakdown"] = _breakdown(result, scene, [v.points for v in lifted.views], {v.name: p for v, p in zip(scene.views, gt_pts)})
     out["dropped_views"] = [v.name for v in scene.views if v.name not in at]
     out["warnings"] = list(lifted.meta.get("warnings", []))
     sfm = lifted.meta.get("sfm", {})
@@ -344,6 +359,37 @@ def scene_row(r: dict) -> dict:
     }
 
 
+def loss_row(r: dict) -> dict:
+    """Where one scene's RGB-only run loses (:func:`graphseg.audit.loss_breakdown`), beside its true-depth run."""
+    a, b = r["rgb"].get("breakdown") or {}, r["depth"].get("breakdown") or {}
+    px = a.get("pixels") or {}
+    return {
+        "scene": r["scene"],
+        "half": r.get("half", "-"),
+        "no_point": px.get("no_point"),
+        "background": px.get("background"),
+        "no_mask": px.get("no_mask"),
+        "dropped": px.get("dropped"),
+        "labelled": px.get("labelled"),
+        "masks_maj": a.get("masks_majority"),
+        "obj_maj": a.get("objects_majority"),
+        "iou": a.get("iou"),
+        "masks_maj_d": b.get("masks_majority"),
+        "obj_maj_d": b.get("objects_majority"),
+        "iou_d": b.get("iou"),
+    }
+
+
+def loss_summary(rows: list[dict]) -> list[dict]:
+    """Means of :func:`loss_row` per half (scenes whose RGB-only run failed are left out)."""
+    out = []
+    for half in ("tune", "check", "all"):
+        ls = [loss_row(r) for r in rows if r.get("group") == "synthetic" and (half == "all" or r["half"] == half) and r["rgb"].get("breakdown")]
+        if ls:
+            out.append({"scene": f"mean ({len(ls)})", "half": half, **{k: _mean([x[k] for x in ls]) for k in LOSS_COLS[2:]}})
+    return out
+
+
 def _short(msg: str, n: int = 110) -> str:
     """The error as the table shows it (the JSON keeps it whole)."""
     msg = msg.split(": views: ", 1)[-1]  # drop the scene name the SceneError repeats
@@ -439,6 +485,14 @@ def checks(rows: list[dict]) -> list[dict]:
 SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
 SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
 CHECK_COLS = ["half", "check", "n", "value", "pass"]
+LOSS_COLS = ["scene", "half", "no_point", "background", "no_mask", "dropped", "labelled", "masks_maj", "obj_maj", "iou", "masks_maj_d", "obj_maj_d", "iou_d"]
+LOSS_NOTE = (
+    "Shares of the ground-truth object pixels of the RGB-only run's views: no lifted point, taken by the background class, "
+    "in no mask, in a mask whose object was dropped, labelled. `masks_maj`: every mask to its majority object (the masks' "
+    "ceiling); `obj_maj`: every final object to its majority object (pieces joined, merges kept); so `masks_maj - obj_maj` "
+    "is roughly the cost of wrong grouping and `obj_maj - iou` the cost of pieces. `*_d`: the true-depth run. IoUs on the "
+    "true point maps over the run's own views (`graphseg.audit.loss_breakdown`)."
+)
 
 
 def report(payload: dict, path: Path) -> None:
@@ -450,6 +504,8 @@ def report(payload: dict, path: Path) -> None:
     t2 = print_table(payload["summary"], SUMMARY_COLS)
     print("\nAcceptance checks (issue 20; the check half is the acceptance, tune and all beside it):")
     t3 = print_table(payload["checks"], CHECK_COLS)
+    print("\nWhere the loss is (" + LOSS_NOTE + "):")
+    t5 = print_table([loss_row(r) for r in synth if r["rgb"].get("breakdown")] + loss_summary(rows), LOSS_COLS)
     ycb = [r for r in rows if r.get("group") == "ycbv"]
     t4 = ""
     if ycb:
@@ -465,7 +521,7 @@ def report(payload: dict, path: Path) -> None:
         f"{payload.get('elapsed_s', 0) / 60:.1f} min on {payload.get('machine_note', '')}.\n\n"
         "RGB-only = depth, poses and intrinsics removed; `*_d` = the same scene with its true depth. "
         "IoU, F1, precision and PQ are computed on the true point maps for both runs; a failed RGB-only run counts as 0.\n\n"
-        "## Acceptance checks\n\n" + t3 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
+        "## Acceptance checks\n\n" + t3 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + "\n\n## Where the loss is\n\n" + LOSS_NOTE + "\n\n" + t5 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
     )
     print(f"wrote {md}")
 

@@ -22,6 +22,11 @@ majority 0). Then, per stage graph of a :class:`~graphseg.result.Result`:
   bound: joining a mask whose majority is the table to an object can score
   a little higher.
 
+:func:`loss_breakdown` splits a run's loss against the ground truth into
+where each object pixel went (no point, background, no mask, dropped,
+labelled), the masks' majority grouping, and the IoU once every final object
+is mapped to its majority object (pieces joined, merges kept).
+
 :func:`audit` returns plain data; :mod:`graphseg.render_audit` renders it as
 text (the command line) or HTML (the report page). ``format_audit``,
 ``format_by_criterion`` and ``audit_html`` stay importable from here.
@@ -55,6 +60,7 @@ __all__ = [
     "lift_edges",
     "min_cut_edges",
     "audit",
+    "loss_breakdown",
     "format_audit",
     "format_by_criterion",
     "audit_html",
@@ -387,6 +393,98 @@ def audit(result: Any, scene: Any, *, purity: float = 0.8, min_share: float = 0.
         "cut_edges": int(sum(len(m["cut"]) for m in merges)),  # type: ignore[arg-type,misc]
     }
     return {"summary": summary, "stages": stages, "impure_masks": impure, "merge_errors": merges, "purity": purity, "min_share": min_share}
+
+
+def loss_breakdown(
+    result: Any, instances: Sequence[np.ndarray], points: Sequence[np.ndarray], *, eval_points: Sequence[np.ndarray] | None = None
+) -> dict[str, Any]:
+    """Where a run loses against the ground truth: pixels, masks, grouping, pieces.
+
+    Parameters
+    ----------
+    result : Result
+        A run (its ``graphs[0]`` must store the mask images; ``background`` is read when present).
+    instances : list of int ``[H, W]``
+        Ground-truth instance ids for the run's views, in its order (0 = background).
+    points : list of float ``[H, W, 3]``
+        The point maps the run used (NaN = no point).
+    eval_points : list of float ``[H, W, 3]``, optional
+        The point maps the IoUs are computed on (default ``points``); give the
+        true ones to score a lifted run as the benchmarks do.
+
+    Returns
+    -------
+    dict
+        ``pixels``: shares of the ground-truth object pixels that had no point
+        (``no_point``), fell in the background class (``background``), lay in
+        no mask (``no_mask``), lay in a mask whose object was dropped
+        (``dropped``, e.g. too little support) or carry an object
+        (``labelled``); they sum to 1. ``iou``: the run's mean IoU;
+        ``objects_majority``: the mean IoU after every final object takes the
+        ground-truth object holding most of its pixels (pieces of one object
+        joined, merged objects kept merged: ``objects_majority - iou`` is what
+        the pieces cost); ``masks_majority``: the masks' majority grouping
+        (:func:`audit`'s ``majority_grouping_iou``; ``masks_majority -
+        objects_majority`` is roughly what wrong grouping cost). IoUs are None
+        without a ground-truth object.
+
+    Notes
+    -----
+    O(total pixels).
+
+    Examples
+    --------
+    >>> from graphseg.method.segment import segment
+    >>> from graphseg.testing.scenes import two_boxes_scene
+    >>> scene, masks, matches = two_boxes_scene()
+    >>> b = loss_breakdown(segment(scene, masks, matches), [v.instances for v in scene.views], [v.points for v in scene.views])
+    >>> round(b["pixels"]["labelled"], 3), b["iou"] == b["objects_majority"]
+    (0.999, True)
+    """
+    from .metrics import mean_iou
+
+    labels = [np.asarray(lab) for lab in result.labels]
+    gt = [np.asarray(g) for g in instances]
+    if not (len(gt) == len(points) == len(labels)):
+        raise ValueError(f"expected instances and points for the run's {len(labels)} views (got {len(gt)} and {len(points)})")
+    if not result.graphs or result.graphs[0].masks is None:
+        raise ValueError("the result stores no mask images; the breakdown needs them")
+    ev = [np.asarray(p) for p in (points if eval_points is None else eval_points)]
+    g0 = result.graphs[0]
+    fate = dict.fromkeys(("no_point", "background", "no_mask", "dropped", "labelled"), 0)
+    for v, (lab, g) in enumerate(zip(labels, gt)):
+        if lab.shape != g.shape:
+            raise ValueError(f"view {v}: labels are {list(lab.shape)} but the ground truth is {list(g.shape)}")
+        obj = g > 0
+        has = np.isfinite(np.asarray(points[v], np.float64)).all(-1)
+        bg = np.asarray(result.background[v], bool) if result.background is not None else np.zeros(g.shape, bool)
+        masked = np.asarray(g0.masks[v]) > 0
+        fate["no_point"] += int((obj & ~has).sum())
+        rest = obj & has & (lab <= 0)
+        fate["labelled"] += int((obj & has & (lab > 0)).sum())
+        fate["background"] += int((rest & bg).sum())
+        fate["no_mask"] += int((rest & ~bg & ~masked).sum())
+        fate["dropped"] += int((rest & ~bg & masked).sum())
+    total = sum(fate.values())
+    shares = {k: (n / total if total else 0.0) for k, n in fate.items()}
+    # every final object -> the ground-truth object holding most of its pixels
+    n_pred = max((int(lab.max(initial=0)) for lab in labels), default=0) + 1
+    n_gt = max((int(g.max(initial=0)) for g in gt), default=0) + 1
+    table = np.zeros((n_pred, n_gt), np.int64)
+    for lab, g in zip(labels, gt):
+        np.add.at(table, (np.clip(lab, 0, None).ravel(), np.clip(g, 0, None).ravel()), 1)
+    to_gt = table.argmax(axis=1)
+    to_gt[0] = 0
+    mapped = [to_gt[np.clip(lab, 0, None)] for lab in labels]
+    mem = g0.members
+    base_obj, _ = majority(mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], gt))
+    grouped = paint_masks(g0.masks, mem["view"], mem["mask_id"], np.clip(base_obj, 0, None))
+    return {
+        "pixels": shares,
+        "iou": mean_iou(labels, gt, ev),
+        "objects_majority": mean_iou(mapped, gt, ev),
+        "masks_majority": mean_iou(grouped, gt, ev),
+    }
 
 
 def _criterion(graph: Any, e: int) -> str | None:

@@ -136,3 +136,56 @@ def test_wrong_edges_by_criterion_read_as_text_in_html_and_terminal():
     assert "  stage 1: 0 of 2 edges join different objects" in text.splitlines()  # nothing to list: no brackets
     assert format_by_criterion({"a<b": 1}) == "a<b: 1" and "a&lt;b: 1" in audit_html({**rep, "stages": [{**rep["stages"][0], "wrong_by_criterion": {"a<b": 1}}]})
     assert format_by_criterion(None, empty="-") == "-"
+
+
+def _one_view_result(labels, masks, background=None):
+    """A minimal result: one view, its final labels and its composed masks (mask_id + 1 per pixel)."""
+    m = np.asarray(masks)
+    ids = np.unique(m[m > 0]) - 1
+    g = SimpleNamespace(masks=[m], members={"node": np.arange(ids.size), "view": np.zeros(ids.size, np.int64), "mask_id": ids.astype(np.int64)})
+    return SimpleNamespace(labels=[np.asarray(labels)], graphs=[g], background=background)
+
+
+def test_loss_breakdown_by_hand():
+    """Two objects of 3 pixels; one object pixel without a point, one in the background, one in no mask, one dropped."""
+    from graphseg.audit import loss_breakdown
+
+    gt = np.array([[1, 1, 1, 2, 2, 2, 0, 0]])
+    pts = np.zeros((1, 8, 3))
+    pts[0, 0] = np.nan  # object 1: no point
+    masks = np.array([[0, 1, 1, 2, 2, 3, 3, 0]])  # mask 0 on object 1, mask 1 on object 2, mask 2 straddles 2 / table
+    labels = np.array([[0, 5, 0, 7, 7, 0, 0, 0]])  # object of mask 0 partly dropped; mask 2's object dropped
+    bg = np.zeros((1, 8), bool)
+    bg[0, 2] = True  # object 1's third pixel: background class
+    r = _one_view_result(labels, masks, [bg])
+    b = loss_breakdown(r, [gt], [pts])
+    assert b["pixels"] == pytest.approx({"no_point": 1 / 6, "background": 1 / 6, "no_mask": 0.0, "dropped": 1 / 6, "labelled": 3 / 6})
+    assert sum(b["pixels"].values()) == pytest.approx(1.0)
+    # IoU on pixels with a point: object 1 -> {1} of {1, 2} = 0.5; object 2 -> {3, 4} of {3, 4, 5} = 2/3
+    assert b["iou"] == pytest.approx((1 / 2 + 2 / 3) / 2)
+    # each final object is already on one object: the mapping changes nothing
+    assert b["objects_majority"] == pytest.approx(b["iou"])
+    # majority masks: mask 0 -> object 1 (pixels 1, 2), mask 1 -> object 2, mask 2 ties object 2 / table and takes the table
+    assert b["masks_majority"] == pytest.approx((1.0 + 2 / 3) / 2)
+    # no point anywhere in a view: every object pixel is "no_point"
+    none = loss_breakdown(r, [gt], [np.full((1, 8, 3), np.nan)], eval_points=[pts])
+    assert none["pixels"]["no_point"] == 1.0 and none["iou"] == b["iou"]
+
+
+def test_loss_breakdown_pieces_and_errors():
+    """Pieces of one object cost IoU that the objects-majority mapping gives back; bad inputs name the field."""
+    from graphseg.audit import loss_breakdown
+
+    gt = np.array([[1, 1, 1, 1, 0, 0]])
+    pts = np.zeros((1, 6, 3))
+    masks = np.array([[1, 1, 2, 2, 0, 0]])
+    r = _one_view_result(np.array([[3, 3, 4, 4, 0, 0]]), masks)  # one object in two pieces
+    b = loss_breakdown(r, [gt], [pts])
+    assert b["iou"] == pytest.approx(0.5) and b["objects_majority"] == pytest.approx(1.0) and b["masks_majority"] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="instances and points"):
+        loss_breakdown(r, [gt, gt], [pts])
+    with pytest.raises(ValueError, match="ground truth is"):
+        loss_breakdown(r, [gt[:, :4]], [pts[:, :4]])
+    r.graphs[0].masks = None
+    with pytest.raises(ValueError, match="no mask images"):
+        loss_breakdown(r, [gt], [pts])
