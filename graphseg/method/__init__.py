@@ -1,4 +1,4 @@
-"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, per-pixel refinement."""
+"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, per-pixel refinement, rim trimming."""
 
 from .background import BackgroundInfo, background_masks, fit_table_plane
 from .masks import compose_masks
@@ -6,6 +6,7 @@ from .pairs import pose_distance, scene_scale, select_pairs
 from .refine import project_to_view, refine_labels
 from .segment import segment
 from .split import merge_objects, split_objects
+from .trim import trim_rims
 
 __all__ = [
     "fit_table_plane",
@@ -20,4 +21,5 @@ __all__ = [
     "merge_objects",
     "refine_labels",
     "project_to_view",
+    "trim_rims",
 ]

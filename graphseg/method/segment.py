@@ -46,6 +46,7 @@ from .background import background_masks
 from .masks import compose_masks, majority_objects, paint_masks
 from .refine import project_to_view, refine_labels
 from .split import merge_objects, split_objects
+from .trim import trim_rims
 
 __all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -858,7 +859,9 @@ def finish_segmentation(
     first appearance, :func:`~graphseg.graphs.contract.canonical_cluster`),
     its masks are painted into label images, the minimum-support rules
     (:func:`apply_min_support`, ``config.objects``) drop or merge objects,
-    the optional refinement (``config.refine``) relabels pixels, every node of
+    the optional refinement (``config.refine``) relabels pixels, the optional
+    rim trimming (``config.trim``) unlabels border pixels that look like the
+    background beside them, every node of
     every stage graph gets its final object id (node column ``object``; 0 =
     below the minimum support) and the object clouds are gathered
     (``config.output``).
@@ -881,13 +884,13 @@ def finish_segmentation(
     background : list of bool ``[H, W]``
         The background class per view.
     config : Config
-        ``objects``, ``split``, ``refine`` and ``output`` are read.
+        ``objects``, ``split``, ``refine``, ``trim`` and ``output`` are read.
     info : mapping, optional, keyword-only
         The run's own entries of ``Result.info`` (``background``, ``masks``,
         ``stages``, ``timings``, ``num_matches``, ``pairs``), kept in their
-        order; ``support``, ``split``, ``refine`` and ``warnings`` are added, and
-        ``timings`` (a copy) gets ``split`` (split and merge, when enabled),
-        ``refine`` (when enabled), ``outputs`` and ``total``. ``split`` (None
+        order; ``support``, ``split``, ``refine``, ``trim`` and ``warnings`` are
+        added, and ``timings`` (a copy) gets ``split`` (split and merge, when
+        enabled), ``refine`` and ``trim`` (when enabled), ``outputs`` and ``total``. ``split`` (None
         when disabled) holds :func:`~graphseg.method.split.split_objects`'
         ``objects`` and ``first_new`` (ids before any merge), its ``merges``
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
@@ -985,6 +988,12 @@ def finish_segmentation(
             out_labels, points, cameras, confidence=[v.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
         )
         timings["refine"] = time.perf_counter() - t_refine
+    trim_info = None
+    if cfg.trim.enabled:
+        t_trim = time.perf_counter()
+        tr = cfg.trim
+        out_labels, trim_info = trim_rims(out_labels, [v.rgb for v in views], window=tr.window, rim=tr.rim, blur=tr.blur)
+        timings["trim"] = time.perf_counter() - t_trim
     area = None
     if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges")):  # the split or merge changed objects
         sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
@@ -1020,6 +1029,7 @@ def finish_segmentation(
             "support": support,
             "split": split_info,
             "refine": refine_info,
+            "trim": trim_info,
             "warnings": _degenerate_warnings(len(views), int(mem["node"].size), num_objects),
         },
     )
