@@ -41,8 +41,9 @@ Measures (per scene)
     so missing RGB-only points cannot flatter the score); seconds per stage (wall),
     total seconds, CPU seconds of the process (all threads), peak RSS; where the
     loss is (:func:`graphseg.audit.loss_breakdown`, both runs): the shares of the
-    object pixels with no point, in the background class, in no mask, in a
-    dropped object and labelled, the masks' majority grouping and the IoU with
+    object pixels with no point, in the background class, in no mask, in a mask
+    but unlabelled (a dropped object, or trimmed at a rim) and labelled, the
+    masks' majority grouping and the IoU with
     every final object mapped to its majority object.
 
 Summary
@@ -141,13 +142,13 @@ def _quality(labels, inst, gt_pts, names) -> dict[str, Any]:
     return out
 
 
-def _breakdown(result, scene, points, eval_points) -> dict[str, Any]:
-    """:func:`graphseg.audit.loss_breakdown` of a run over its own views (matched to the scene's by name)."""
+def _breakdown(result, scene, points: dict, eval_points: dict) -> dict[str, Any]:
+    """:func:`graphseg.audit.loss_breakdown` of a run over its own views; ``points`` and ``eval_points`` map view names to point maps."""
     from graphseg.audit import loss_breakdown
 
     inst = {v.name: v.instances for v in scene.views}
     names = result.view_names
-    return loss_breakdown(result, [inst[n] for n in names], points, eval_points=[eval_points[n] for n in names])
+    return loss_breakdown(result, [inst[n] for n in names], [points[n] for n in names], eval_points=[eval_points[n] for n in names])
 
 
 def _load_input(task: dict):
@@ -184,7 +185,8 @@ def one(task: dict) -> dict:
         out["total_s"] = time.perf_counter() - t0
         out["cpu_s"] = time.process_time() - c0
         out.update(_quality(result.labels, inst, gt_pts, scene.objects))
-        out["breakdown"] = _breakdown(result, scene, gt_pts, {v.name: p for v, p in zip(scene.views, gt_pts)})
+        true_pts = {v.name: p for v, p in zip(scene.views, gt_pts)}
+        out["breakdown"] = _breakdown(result, scene, true_pts, true_pts)
         out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         return out
     inp = rgb_only(scene, keep_intrinsics=mode == "nodepth")
@@ -213,7 +215,7 @@ def one(task: dict) -> dict:
     at = {v.name: i for i, v in enumerate(lifted.views)}
     labels = [result.labels[at[v.name]] if v.name in at else np.zeros(v.shape, np.int32) for v in scene.views]
     out.update(_quality(labels, inst, gt_pts, scene.objects))
-    out["breakdown"] = _breakdown(result, scene, [v.points for v in lifted.views], {v.name: p for v, p in zip(scene.views, gt_pts)})
+    out["breakdown"] = _breakdown(result, scene, {v.name: v.points for v in lifted.views}, {v.name: p for v, p in zip(scene.views, gt_pts)})
     out["dropped_views"] = [v.name for v in scene.views if v.name not in at]
     out["warnings"] = list(lifted.meta.get("warnings", []))
     sfm = lifted.meta.get("sfm", {})
@@ -369,7 +371,7 @@ def loss_row(r: dict) -> dict:
         "no_point": px.get("no_point"),
         "background": px.get("background"),
         "no_mask": px.get("no_mask"),
-        "dropped": px.get("dropped"),
+        "unlabelled": px.get("dropped"),
         "labelled": px.get("labelled"),
         "masks_maj": a.get("masks_majority"),
         "obj_maj": a.get("objects_majority"),
@@ -485,10 +487,10 @@ def checks(rows: list[dict]) -> list[dict]:
 SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
 SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
 CHECK_COLS = ["half", "check", "n", "value", "pass"]
-LOSS_COLS = ["scene", "half", "no_point", "background", "no_mask", "dropped", "labelled", "masks_maj", "obj_maj", "iou", "masks_maj_d", "obj_maj_d", "iou_d"]
+LOSS_COLS = ["scene", "half", "no_point", "background", "no_mask", "unlabelled", "labelled", "masks_maj", "obj_maj", "iou", "masks_maj_d", "obj_maj_d", "iou_d"]
 LOSS_NOTE = (
     "Shares of the ground-truth object pixels of the RGB-only run's views: no lifted point, taken by the background class, "
-    "in no mask, in a mask whose object was dropped, labelled. `masks_maj`: every mask to its majority object (the masks' "
+    "in no mask, in a mask but unlabelled (its object dropped, or the pixel trimmed at an object's rim), labelled. `masks_maj`: every mask to its majority object (the masks' "
     "ceiling); `obj_maj`: every final object to its majority object (pieces joined, merges kept); so `masks_maj - obj_maj` "
     "is roughly the cost of wrong grouping and `obj_maj - iou` the cost of pieces. `*_d`: the true-depth run. IoUs on the "
     "true point maps over the run's own views (`graphseg.audit.loss_breakdown`)."

@@ -405,7 +405,8 @@ def loss_breakdown(
     result : Result
         A run (its ``graphs[0]`` must store the mask images; ``background`` is read when present).
     instances : list of int ``[H, W]``
-        Ground-truth instance ids for the run's views, in its order (0 = background).
+        Ground-truth instance ids for the run's views, in its order (0 or
+        negative = background; negative labels of the run count as none too).
     points : list of float ``[H, W, 3]``
         The point maps the run used (NaN = no point).
     eval_points : list of float ``[H, W, 3]``, optional
@@ -417,13 +418,15 @@ def loss_breakdown(
     dict
         ``pixels``: shares of the ground-truth object pixels that had no point
         (``no_point``), fell in the background class (``background``), lay in
-        no mask (``no_mask``), lay in a mask whose object was dropped
-        (``dropped``, e.g. too little support) or carry an object
+        no mask (``no_mask``), lay in a mask but carry no object (``dropped``:
+        the object had too little support, or a step after contraction such
+        as the rim trim unlabelled the pixel) or carry an object
         (``labelled``); they sum to 1. ``iou``: the run's mean IoU;
         ``objects_majority``: the mean IoU after every final object takes the
-        ground-truth object holding most of its pixels (pieces of one object
-        joined, merged objects kept merged: ``objects_majority - iou`` is what
-        the pieces cost); ``masks_majority``: the masks' majority grouping
+        ground-truth object holding most of its object pixels (table pixels do
+        not vote; an object on no ground-truth object is dropped): pieces of one
+        object are joined and merged objects stay merged, so
+        ``objects_majority - iou`` is what the pieces cost; ``masks_majority``: the masks' majority grouping
         (:func:`audit`'s ``majority_grouping_iou``; ``masks_majority -
         objects_majority`` is roughly what wrong grouping cost). IoUs are None
         without a ground-truth object.
@@ -443,39 +446,48 @@ def loss_breakdown(
     """
     from .metrics import mean_iou
 
-    labels = [np.asarray(lab) for lab in result.labels]
-    gt = [np.asarray(g) for g in instances]
-    if not (len(gt) == len(points) == len(labels)):
-        raise ValueError(f"expected instances and points for the run's {len(labels)} views (got {len(gt)} and {len(points)})")
+    labels = [np.clip(np.asarray(lab), 0, None) for lab in result.labels]  # negative ids count as none
+    gt = [np.clip(np.asarray(g), 0, None) for g in instances]
+    n = len(labels)
+    if not (len(gt) == len(points) == n):
+        raise ValueError(f"expected instances and points for the run's {n} views (got {len(gt)} and {len(points)})")
+    if eval_points is not None and len(eval_points) != n:
+        raise ValueError(f"expected eval_points for the run's {n} views (got {len(eval_points)})")
+    if result.background is not None and len(result.background) != n:
+        raise ValueError(f"expected a background image for each of the run's {n} views (got {len(result.background)})")
     if not result.graphs or result.graphs[0].masks is None:
         raise ValueError("the result stores no mask images; the breakdown needs them")
     ev = [np.asarray(p) for p in (points if eval_points is None else eval_points)]
     g0 = result.graphs[0]
     fate = dict.fromkeys(("no_point", "background", "no_mask", "dropped", "labelled"), 0)
     for v, (lab, g) in enumerate(zip(labels, gt)):
-        if lab.shape != g.shape:
-            raise ValueError(f"view {v}: labels are {list(lab.shape)} but the ground truth is {list(g.shape)}")
+        pts = np.asarray(points[v], np.float64)
+        for what, shape in (("labels", lab.shape), ("points", pts.shape[:2]), ("eval_points", ev[v].shape[:2])):
+            if shape != g.shape:
+                raise ValueError(f"view {v}: {what} are {list(shape)} but the ground truth is {list(g.shape)}")
         obj = g > 0
-        has = np.isfinite(np.asarray(points[v], np.float64)).all(-1)
+        has = np.isfinite(pts).all(-1)
         bg = np.asarray(result.background[v], bool) if result.background is not None else np.zeros(g.shape, bool)
         masked = np.asarray(g0.masks[v]) > 0
         fate["no_point"] += int((obj & ~has).sum())
-        rest = obj & has & (lab <= 0)
+        rest = obj & has & (lab == 0)
         fate["labelled"] += int((obj & has & (lab > 0)).sum())
         fate["background"] += int((rest & bg).sum())
         fate["no_mask"] += int((rest & ~bg & ~masked).sum())
         fate["dropped"] += int((rest & ~bg & masked).sum())
     total = sum(fate.values())
-    shares = {k: (n / total if total else 0.0) for k, n in fate.items()}
-    # every final object -> the ground-truth object holding most of its pixels
+    shares = {k: (c / total if total else 0.0) for k, c in fate.items()}
+    # every final object -> the ground-truth object holding most of its object pixels (table pixels
+    # do not vote: an object mostly on the table still maps to the object it covers); none -> 0
     n_pred = max((int(lab.max(initial=0)) for lab in labels), default=0) + 1
     n_gt = max((int(g.max(initial=0)) for g in gt), default=0) + 1
     table = np.zeros((n_pred, n_gt), np.int64)
     for lab, g in zip(labels, gt):
-        np.add.at(table, (np.clip(lab, 0, None).ravel(), np.clip(g, 0, None).ravel()), 1)
-    to_gt = table.argmax(axis=1)
+        np.add.at(table, (lab.ravel(), g.ravel()), 1)
+    on_obj = table[:, 1:]
+    to_gt = np.where(on_obj.sum(axis=1) > 0, on_obj.argmax(axis=1) + 1 if n_gt > 1 else 0, 0)
     to_gt[0] = 0
-    mapped = [to_gt[np.clip(lab, 0, None)] for lab in labels]
+    mapped = [to_gt[lab] for lab in labels]
     mem = g0.members
     base_obj, _ = majority(mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], gt))
     grouped = paint_masks(g0.masks, mem["view"], mem["mask_id"], np.clip(base_obj, 0, None))

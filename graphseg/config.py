@@ -142,10 +142,17 @@ class TrimConfig(_Model):
     pixels on the tuning half of ``bench_rgb_only.py``; ``docs/results.md``).
     """
 
-    enabled: bool = Field(False, description="unlabel rim pixels that look like the background beside them")
-    window: int = Field(7, ge=1, description="pixels: window of the background colour (the interior's is 3 times as wide)")
+    enabled: bool = Field(False, description="unlabel rim pixels that look like the background beside them (estimated points: lifted.trim)")
+    window: int = Field(7, ge=1, description="pixels, odd: window of the background colour (the interior's is 3 times as wide)")
     rim: int = Field(3, ge=1, description="pixels: only labelled pixels this close to an unlabelled one are tested")
     blur: float = Field(1.0, ge=0, description="pixels: Gaussian blur before the colours are read")
+
+    @field_validator("window")
+    @classmethod
+    def _odd_window(cls, v: int) -> int:
+        if v % 2 == 0:
+            raise ValueError(f"expected an odd window, so that it is centred on the pixel (got {v})")
+        return v
 
 
 class LiftedConfig(_Model):
@@ -176,10 +183,12 @@ class LiftedConfig(_Model):
     ``lifted.split`` given by the user replaces the whole default and goes on
     top of ``split``: ``{"max_ncut": 0.02}`` alone turns the join back on for
     estimated points.
-    ``trim`` goes on top of :class:`TrimConfig` like ``split`` (and yields to
-    a field the user changed there from its default; ``lifted.trim:
-    {enabled: false}`` turns it off): estimated points have their object rims
-    trimmed by colour (tuning half 0.751 -> 0.770; ``docs/results.md``).
+    ``trim`` goes on top of :class:`TrimConfig` (default ``{enabled: true}``:
+    estimated points have their object rims trimmed by colour; tuning half
+    0.751 -> 0.769, ``docs/results.md``). The other ``trim`` fields (window,
+    rim, blur) come from the ``trim`` section; ``trim.enabled: false`` there
+    does not turn it off for estimated points, ``lifted.trim: {enabled: false}``
+    does.
     ``preset`` (None by default) replaces the stages and the contractor with
     those of a preset before ``criteria`` apply. ``backend_options`` gives the
     segmenter and matcher that run on the estimated points their defaults; an
@@ -206,7 +215,7 @@ class LiftedConfig(_Model):
     )
     trim: dict[str, Any] = Field(
         default_factory=lambda: dict(_DEFAULT_LIFTED_TRIM),
-        description="TrimConfig fields applied on top of the trim section (default: rims trimmed, unless the trim section changed that field)",
+        description="TrimConfig fields applied on top of the trim section (default: rims trimmed; {enabled: false} turns it off for estimated points)",
     )
 
     @field_validator("trim")
@@ -639,10 +648,7 @@ class Config(_Model):
             plain = SplitConfig()
             split_over = {k: v for k, v in split_over.items() if getattr(self.split, k) == getattr(plain, k)}
         split = SplitConfig.model_validate({**self.split.model_dump(), **split_over})
-        trim_over = dict(lf.trim)
-        if trim_over == _DEFAULT_LIFTED_TRIM:  # the built-in default yields to trim options the user changed
-            trim_over = {k: v for k, v in trim_over.items() if getattr(self.trim, k) == getattr(TrimConfig(), k)}
-        trim = TrimConfig.model_validate({**self.trim.model_dump(), **trim_over})
+        trim = TrimConfig.model_validate({**self.trim.model_dump(), **lf.trim})  # lifted.trim wins (its default only turns the trim on)
         options = {**self.backends.options, **{k: {**v, **self.backends.options.get(k, {})} for k, v in lf.backend_options.items()}}
         return base.model_copy(
             update={

@@ -147,7 +147,7 @@ def _one_view_result(labels, masks, background=None):
 
 
 def test_loss_breakdown_by_hand():
-    """Two objects of 3 pixels; one object pixel without a point, one in the background, one in no mask, one dropped."""
+    """Two objects of 3 pixels; one object pixel without a point, one in the background, one dropped."""
     from graphseg.audit import loss_breakdown
 
     gt = np.array([[1, 1, 1, 2, 2, 2, 0, 0]])
@@ -184,8 +184,33 @@ def test_loss_breakdown_pieces_and_errors():
     assert b["iou"] == pytest.approx(0.5) and b["objects_majority"] == pytest.approx(1.0) and b["masks_majority"] == pytest.approx(1.0)
     with pytest.raises(ValueError, match="instances and points"):
         loss_breakdown(r, [gt, gt], [pts])
+    with pytest.raises(ValueError, match="eval_points for the run's 1 views"):
+        loss_breakdown(r, [gt], [pts], eval_points=[pts, pts])
+    with pytest.raises(ValueError, match="view 0: eval_points are"):
+        loss_breakdown(r, [gt], [pts], eval_points=[pts[:, :4]])
+    with pytest.raises(ValueError, match="view 0: points are"):
+        loss_breakdown(r, [gt], [pts[:, :4]])
     with pytest.raises(ValueError, match="ground truth is"):
         loss_breakdown(r, [gt[:, :4]], [pts[:, :4]])
     r.graphs[0].masks = None
     with pytest.raises(ValueError, match="no mask images"):
         loss_breakdown(r, [gt], [pts])
+
+
+def test_loss_breakdown_no_mask_table_majority_and_negative_ids():
+    """A pixel with a point outside every mask counts as no_mask; an object lying mostly on the table still maps to
+    the ground-truth object it covers; negative ground-truth ids are background."""
+    from graphseg.audit import loss_breakdown
+
+    gt = np.array([[1, 1, 1, 0, 0, 0, -1]])
+    pts = np.zeros((1, 7, 3))
+    masks = np.array([[0, 1, 1, 1, 1, 1, 1]])  # object pixel 0 lies in no mask
+    r = _one_view_result(np.array([[0, 4, 4, 4, 4, 4, 4]]), masks)  # one object: 2 object pixels, 4 table pixels
+    b = loss_breakdown(r, [gt], [pts])
+    assert b["pixels"]["no_mask"] == pytest.approx(1 / 3) and b["pixels"]["labelled"] == pytest.approx(2 / 3)
+    assert b["iou"] == pytest.approx(2 / 7)  # -1 counts as background, not as a second class
+    assert b["objects_majority"] == pytest.approx(b["iou"])  # mapped to object 1, not dropped for its table majority
+    # a perfect run with a negative ground-truth id scores 1
+    perfect = _one_view_result(np.array([[1, 1, 1, 0, 0, 0, 0]]), np.array([[1, 1, 1, 0, 0, 0, 0]]))
+    p = loss_breakdown(perfect, [gt], [pts])
+    assert p["iou"] == p["objects_majority"] == p["masks_majority"] == pytest.approx(1.0)

@@ -44,7 +44,7 @@ def trim_rims(
     images : list of uint8 ``[H, W, 3]`` or None
         RGB per view (None: that view is left as it is).
     window : int
-        Side (pixels) of the window whose unlabelled pixels give the
+        Side (pixels, odd) of the window whose unlabelled pixels give the
         background colour; the interior colour comes from a window ``3 *
         window`` wide.
     rim : int
@@ -78,6 +78,8 @@ def trim_rims(
         raise ValueError(f"expected one image per label image (got {len(labels)} labels and {len(images)} images)")
     if window < 1 or rim < 1 or min_pixels < 1:
         raise ValueError(f"expected window, rim and min_pixels >= 1 (got {window}, {rim}, {min_pixels})")
+    if window % 2 == 0:
+        raise ValueError(f"expected an odd window, so that it is centred on the pixel (got {window})")
     out: list[np.ndarray] = []
     per_view: list[int] = []
     near, far = (window, window), (3 * window, 3 * window)
@@ -90,12 +92,14 @@ def trim_rims(
         im = np.asarray(rgb)
         if im.shape[:2] != lab.shape or im.ndim != 3 or im.shape[2] != 3:
             raise ValueError(f"view {v}: expected an image of shape [{lab.shape[0]}, {lab.shape[1]}, 3] (got {list(im.shape)})")
+        if im.dtype != np.uint8:
+            raise ValueError(f"view {v}: expected a uint8 image (got {im.dtype})")
         obj = lab > 0
         if not obj.any() or obj.all():
             out.append(lab)
             per_view.append(0)
             continue
-        col = np.ascontiguousarray(im, dtype=np.uint8)
+        col = np.ascontiguousarray(im)
         if blur > 0:
             col = np.asarray(cv2.GaussianBlur(col, (0, 0), blur))
         lab_col = cv2.cvtColor(col, cv2.COLOR_RGB2LAB).astype(np.float32)

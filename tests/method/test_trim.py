@@ -35,6 +35,15 @@ def test_halo_removed_exactly():
     assert info["trimmed"] == 2 * lab.shape[0]
 
 
+def test_rim_depth_is_inclusive_with_the_default_window():
+    """By hand: a 3-column halo and rim 3 (window 7 reaches 3 pixels out): exactly columns 9-11 are unlabelled."""
+    lab, rgb = _halo_scene(halo=3)
+    out, info = trim_rims([lab], [rgb], blur=0.0)
+    np.testing.assert_array_equal(out[0][:, :12], 0)
+    np.testing.assert_array_equal(out[0][:, 12:], 3)
+    assert info["trimmed"] == 3 * lab.shape[0]
+
+
 def test_correct_border_is_kept():
     """Without a halo nothing changes: the object's rim looks like the object."""
     lab, rgb = _halo_scene(halo=0)
@@ -74,6 +83,16 @@ def test_bad_inputs_name_the_field():
         trim_rims([lab], [rgb[:, :5]])
     with pytest.raises(ValueError, match="window, rim and min_pixels"):
         trim_rims([lab], [rgb], window=0)
+    with pytest.raises(ValueError, match="odd window"):
+        trim_rims([lab], [rgb], window=4)
+    with pytest.raises(ValueError, match="view 0: expected a uint8 image"):
+        trim_rims([lab], [rgb.astype(np.float32) / 255])
+    from pydantic import ValidationError
+
+    from graphseg.config import Config
+
+    with pytest.raises(ValidationError, match="odd window"):
+        Config(trim={"window": 8})
 
 
 def test_segment_trims_only_when_enabled():
@@ -86,7 +105,10 @@ def test_segment_trims_only_when_enabled():
     off = segment(scene, masks, matches, Config())
     on = segment(scene, masks, matches, Config(trim={"enabled": True}))
     assert off.info["trim"] is None and "trim" not in off.info["timings"]
-    assert on.info["trim"]["trimmed"] == sum(on.info["trim"]["per_view"]) and "trim" in on.info["timings"]
+    assert on.info["trim"]["trimmed"] > 0 and on.info["trim"]["trimmed"] == sum(on.info["trim"]["per_view"]) and "trim" in on.info["timings"]
     for a, b in zip(off.labels, on.labels):  # trimming only unlabels pixels
         assert np.all((b == a) | (b == 0))
     assert Config().for_lifter("sfm").trim.enabled and not Config().for_lifter("rgbd").trim.enabled
+    # the trim section's other fields reach estimated points; lifted.trim turns it off
+    assert Config(trim={"window": 9}).for_lifter("sfm").trim.window == 9
+    assert not Config(lifted={"trim": {"enabled": False}}).for_lifter("sfm").trim.enabled
