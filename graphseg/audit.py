@@ -444,7 +444,7 @@ def loss_breakdown(
     >>> round(b["pixels"]["labelled"], 3), b["iou"] == b["objects_majority"]
     (0.999, True)
     """
-    from .metrics import mean_iou
+    from .metrics import contingency, mean_iou
 
     labels = [np.clip(np.asarray(lab), 0, None) for lab in result.labels]  # negative ids count as none
     gt = [np.clip(np.asarray(g), 0, None) for g in instances]
@@ -479,14 +479,11 @@ def loss_breakdown(
     shares = {k: (c / total if total else 0.0) for k, c in fate.items()}
     # every final object -> the ground-truth object holding most of its object pixels (table pixels
     # do not vote: an object mostly on the table still maps to the object it covers); none -> 0
-    n_pred = max((int(lab.max(initial=0)) for lab in labels), default=0) + 1
-    n_gt = max((int(g.max(initial=0)) for g in gt), default=0) + 1
-    table = np.zeros((n_pred, n_gt), np.int64)
-    for lab, g in zip(labels, gt):
-        np.add.at(table, (lab.ravel(), g.ravel()), 1)
-    on_obj = table[:, 1:]
-    to_gt = np.where(on_obj.sum(axis=1) > 0, on_obj.argmax(axis=1) + 1 if n_gt > 1 else 0, 0)
-    to_gt[0] = 0
+    table, gt_ids, pred_ids = contingency(labels, gt)  # [G + 1, P + 1]; row and column 0: none
+    on_obj = table[1:]
+    best = gt_ids[1:][on_obj.argmax(axis=0)] if on_obj.shape[0] else np.zeros(pred_ids.size, np.int64)
+    to_gt = np.zeros(int(pred_ids.max()) + 1, np.int64)
+    to_gt[pred_ids] = np.where((on_obj.sum(axis=0) > 0) & (pred_ids > 0), best, 0)
     mapped = [to_gt[lab] for lab in labels]
     mem = g0.members
     base_obj, _ = majority(mask_gt_counts(g0.masks, mem["view"], mem["mask_id"], gt))

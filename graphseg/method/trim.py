@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from ..backends.imaging import to_lab
+
 __all__ = ["trim_rims"]
 
 
@@ -53,7 +55,7 @@ def trim_rims(
         farther than that.
     blur : float
         Gaussian blur (pixels) of the image before the CIE Lab colours are read
-        (OpenCV's 8-bit scaling).
+        (:func:`graphseg.backends.imaging.to_lab`, OpenCV's 8-bit scaling).
     min_pixels : int
         A pixel is tested only when both windows hold at least this many pixels
         of their kind.
@@ -71,7 +73,6 @@ def trim_rims(
     interior mean mixes every object near the pixel, not only its own: a rim
     between two objects' interiors is compared with both.
     """
-    import cv2
     from scipy import ndimage
 
     if len(labels) != len(images):
@@ -99,10 +100,7 @@ def trim_rims(
             out.append(lab)
             per_view.append(0)
             continue
-        col = np.ascontiguousarray(im)
-        if blur > 0:
-            col = np.asarray(cv2.GaussianBlur(col, (0, 0), blur))
-        lab_col = cv2.cvtColor(col, cv2.COLOR_RGB2LAB).astype(np.float32)
+        lab_col = to_lab(im, blur).astype(np.float32)
         depth_in = ndimage.distance_transform_edt(obj)
         cand = obj & (depth_in <= rim)
         bg = (~obj).astype(np.float32)
@@ -123,5 +121,5 @@ def _local_mean(image: np.ndarray, weight: np.ndarray, size: tuple[int, int]) ->
     import cv2
 
     n = cv2.boxFilter(weight, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)
-    s = np.stack([cv2.boxFilter(image[..., c] * weight, -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT) for c in range(image.shape[2])], -1)
+    s = cv2.boxFilter(image * weight[..., None], -1, size, normalize=False, borderType=cv2.BORDER_CONSTANT)  # every channel at once
     return s / np.maximum(n, 1.0)[..., None], n
