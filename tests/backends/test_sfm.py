@@ -40,6 +40,22 @@ def test_run_sfm_recovers_poses_without_intrinsics(arc_scene):
     assert rec.reprojection_error < 1.0
 
 
+def test_extraction_threads_do_not_change_the_reconstruction(arc_scene):
+    """Features are extracted on several threads after the images enter the database in
+    name order, so the image ids, and with them the whole model, do not depend on the count."""
+    images = [v.rgb for v in arc_scene.views]
+    kw = SfmLifter.Options().run_sfm_kwargs()
+    assert kw["num_threads"] == 2
+    one, two = run_sfm(images, **{**kw, "num_threads": 1}), run_sfm(images, **kw)
+    assert one.registered.tolist() == two.registered.tolist() == [True] * 6
+    for a, b in zip(one.cam_to_world + one.K, two.cam_to_world + two.K):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(one.points, two.points)
+    for (xa, ia), (xb, ib) in zip(one.observations, two.observations):
+        np.testing.assert_array_equal(xa, xb)
+        np.testing.assert_array_equal(ia, ib)
+
+
 def test_checkered_table_registers_with_pooled_descriptors():
     """Issue 20: on a checkered table plain SIFT matched the wrong squares (4 of 5 views
     registered, relative rotations 10-19 degrees off); descriptors with domain-size pooling
@@ -75,7 +91,7 @@ def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled,
     models = {True: None if pooled is None else _FakeModel(pooled), False: _FakeModel(plain)}
     seen = []
 
-    def fake_map(*args):
+    def fake_map(*args, **kwargs):
         seen.append(args[-1])
         return models[args[-1]]
 

@@ -140,7 +140,7 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     ext.sift.peak_threshold = peak_threshold
     ext.sift.max_num_features = 8192
     ext.sift.domain_size_pooling = pooling
-    ext.num_threads = 1  # with several threads the image ids, and so the results, change from run to run
+    ext.num_threads = 1  # :func:`_map` raises it once the images are in the database (their ids then no longer depend on it)
     ext.use_gpu = False
     match = pycolmap.FeatureMatchingOptions()
     match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
@@ -176,6 +176,7 @@ def run_sfm(
     seed: int,
     attempts: int = 3,
     camera_model: str,
+    num_threads: int = 1,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -213,6 +214,13 @@ def run_sfm(
         ``bench_rgb_only.py`` (focal lengths off by up to 2.2x and k1 up to 0.94;
         ``docs/results.md``, round 6). Use ``"SIMPLE_RADIAL"``, ``"RADIAL"`` or
         ``"OPENCV"`` for photos with visible lens distortion.
+    num_threads : int
+        Threads for SIFT feature extraction. The images enter COLMAP's
+        database in name order before any feature is extracted, so their ids
+        and the features (computed per image) do not depend on it: the
+        reconstruction is the same for any count. Matching and mapping run on
+        one thread, since their RANSAC and bundle adjustment change with the
+        thread count.
 
     Returns
     -------
@@ -225,8 +233,8 @@ def run_sfm(
     plain SIFT as well, and the model with more views is kept (pooled
     descriptors tell the squares of a checkered table apart; plain ones
     register more on weakly textured views). Exhaustive matching: O(N^2)
-    image pairs. 5-30 s for 8 renders of 640 x 480 on one CPU core (every
-    stage runs single-threaded for reproducibility; ``bench_rgb_only.py``).
+    image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (matching
+    and mapping run single-threaded for reproducibility; ``bench_rgb_only.py``).
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -234,13 +242,22 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads)
     finally:
         pycolmap.logging.minloglevel = level
 
 
 def _run_sfm(
-    pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray] | None, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str
+    pycolmap: Any,
+    cv2: Any,
+    images: list[np.ndarray],
+    K: list[np.ndarray] | None,
+    peak_threshold: float,
+    min_tri_angle: float,
+    seed: int,
+    attempts: int,
+    camera_model: str,
+    num_threads: int = 1,
 ) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
@@ -257,7 +274,7 @@ def _run_sfm(
         # with more registered views is kept (ties keep the pooled one).
         best = None
         for pooling in (True, False):
-            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling)
+            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling, num_threads=num_threads)
             if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                 best = rec
             if best is not None and best.num_reg_images() == n:
@@ -268,7 +285,18 @@ def _run_sfm(
 
 
 def _map(
-    pycolmap: Any, root: Path, names: list[str], K: list[np.ndarray] | None, known: bool, peak_threshold: float, min_tri_angle: float, seed: int, attempts: int, camera_model: str, pooling: bool
+    pycolmap: Any,
+    root: Path,
+    names: list[str],
+    K: list[np.ndarray] | None,
+    known: bool,
+    peak_threshold: float,
+    min_tri_angle: float,
+    seed: int,
+    attempts: int,
+    camera_model: str,
+    pooling: bool,
+    num_threads: int = 1,
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
     n = len(names)
@@ -290,6 +318,12 @@ def _map(
     else:
         reader.camera_model = camera_model
     db = root / f"database-{tag}.db"
+    # the images enter the database in name order first: with several extraction threads
+    # COLMAP would otherwise number them in the order they finish, and the ids steer the mapper
+    with pycolmap.Database.open(db):
+        pass
+    pycolmap.import_images(db, root / "images", camera_mode=mode, image_names=names, options=reader)
+    ext.num_threads = max(1, int(num_threads))
     pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
     if known and mode == pycolmap.CameraMode.PER_IMAGE:
         _set_per_image_cameras(pycolmap, db, names, Ks)
@@ -458,8 +492,9 @@ class SfmLifter(Backend):
     peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
     num_threads : int
-        Unused: COLMAP runs on one thread so that the same photos give the
-        same result (kept so that configurations naming it still load).
+        Threads for SIFT feature extraction (:func:`run_sfm`; the result does
+        not depend on it). Matching and mapping run on one thread so that the
+        same photos give the same result.
     stereo : bool
         Dense stereo where a neighbour is close (:func:`graphseg.backends.lifters.stereo.stereo_depths`).
     max_pair_angle : float
@@ -512,7 +547,7 @@ class SfmLifter(Backend):
         model_config = ConfigDict(extra="forbid")
         peak_threshold: float = Field(0.002, gt=0, description="SIFT detector threshold (COLMAP's default 0.0067 finds too few keypoints on renders)")
         min_tri_angle: float = Field(2.0, gt=0, description="degrees: the initial pair's triangulation angle (new points: a quarter of it)")
-        num_threads: int = Field(2, ge=1, description="unused: COLMAP runs on one thread (kept so configurations naming it still load)")
+        num_threads: int = Field(2, ge=1, description="threads for SIFT feature extraction (the result does not depend on it; matching and mapping run on one thread)")
         stereo: bool = Field(True, description="dense stereo where a neighbour view is close")
         max_pair_angle: float = Field(45.0, gt=0, description="degrees: neighbours whose viewing directions differ more are not used for stereo")
         max_neighbours: int = Field(4, ge=1, description="stereo pairs fused per view")
@@ -542,7 +577,7 @@ class SfmLifter(Backend):
             'SIMPLE_PINHOLE'
             """
             seed = 0 if self.seed is None else int(self.seed)
-            return {"peak_threshold": self.peak_threshold, "min_tri_angle": self.min_tri_angle, "seed": seed, "camera_model": self.camera_model}
+            return {"peak_threshold": self.peak_threshold, "min_tri_angle": self.min_tri_angle, "seed": seed, "camera_model": self.camera_model, "num_threads": self.num_threads}
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
         """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
