@@ -126,7 +126,7 @@ def not_registered_message(registered: int, total: int) -> str:
 
 
 def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, seed: int, known_K: bool, pooling: bool = False) -> tuple[Any, Any, Any]:
-    """COLMAP's options: single-threaded (reproducible), guided matching and low inlier minimums.
+    """COLMAP's options: matching and mapping single-threaded (reproducible), guided matching and low inlier minimums.
 
     Guided matching (matches re-searched along the epipolar lines of the
     first two-view geometry) with the minimums lowered (10 matches, 25 inliers
