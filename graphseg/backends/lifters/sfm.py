@@ -199,8 +199,8 @@ def run_sfm(
         a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
         sweep at 1.2 m).
     seed : int
-        Seeds COLMAP's random number generator; every stage runs on one
-        thread, so the same images give the same reconstruction.
+        Seeds COLMAP's random number generator; matching and mapping run on
+        one thread, so the same images give the same reconstruction.
     attempts : int
         Incremental mapping is randomised: when a view
         stays unregistered it is rerun from the same matches with the next
