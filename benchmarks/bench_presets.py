@@ -18,7 +18,7 @@ Besides the presets, ``--presets`` takes the variants of :data:`VARIANTS`
 ``"robust, gaec"``, greedy additive edge contraction; ``"rgbd without split"``
 and ``"robust without split"``, the presets without their 3D split and merge of
 objects, whose time is the ``split`` column; ``"rgbd without merge"``, the
-split alone).
+split alone; ``"rgbd, one split grid"``, the split without its fine 5 mm pass).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
@@ -48,6 +48,7 @@ VARIANTS = {
     "robust, gaec": lambda: Config.model_validate({**Config.preset("robust").to_dict(), "contractor": "gaec"}),
     "rgbd without split": lambda: Config.preset("rgbd", split={"enabled": False}),
     "rgbd without merge": lambda: Config.preset("rgbd", split={"enabled": True, "merge_ncut": None}),
+    "rgbd, one split grid": lambda: Config.preset("rgbd", split={"fine_voxel_size": None}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
 

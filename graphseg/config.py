@@ -284,10 +284,15 @@ class SplitConfig(_Model):
     voxels are linked, weakly across concave creases, and the graph is cut in
     two by normalized cut while the best cut costs less than ``max_ncut``.
     Touching objects whose masks were joined come apart; every pixel follows
-    its voxel. Then touching objects whose union no cut below ``merge_ncut``
-    separates are joined (:func:`graphseg.method.split.merge_objects`): the
-    pieces of one object that the masks and matches left apart. Chosen on the
-    tune halves of ``bench_ycb_views.py`` (``docs/results.md``).
+    its voxel. A second pass on a finer grid (``fine_voxel_size``, parts of the
+    same surface area) resolves the narrow seam where two objects touch; there a
+    cut stands only where the views' masks own its parts (``fine_own_fraction``,
+    ``own_cover``), so the finer grid never cuts a surface the masks see as one.
+    Then touching objects whose union no cut below ``merge_ncut``
+    separates are joined (:func:`graphseg.method.split.merge_objects`, on the
+    ``voxel_size`` grid): the pieces of one object that the masks and matches
+    left apart. Chosen on the tune halves of ``bench_ycb_views.py`` and
+    ``bench_rgb_only.py`` (``docs/results.md``).
     """
 
     enabled: bool = Field(False, description="split objects whose fused 3D points fall into parts joined by a cheap normalized cut")
@@ -299,6 +304,18 @@ class SplitConfig(_Model):
     concave_margin: float = Field(0.05, ge=0, description="a link is concave when (n_a - n_b) . unit(x_a - x_b) < -concave_margin")
     own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
     own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
+    fine_voxel_size: float | None = Field(
+        0.005, gt=0, description="then split again on this finer grid (metres), each part keeping the same surface area (None, or the default when voxel_size is not coarser: one pass)"
+    )
+    fine_own_fraction: float = Field(0.8, gt=0, le=1, description="a fine cut stands only where masks with this share of their pixels in one part cover it")
+
+    @model_validator(mode="after")
+    def _finer(self) -> SplitConfig:
+        if self.fine_voxel_size is not None and self.fine_voxel_size >= self.voxel_size:
+            if "fine_voxel_size" in self.model_fields_set:
+                raise ValueError(f"expected fine_voxel_size < voxel_size (got {self.fine_voxel_size} and {self.voxel_size})")
+            self.fine_voxel_size = None  # the default fine grid is not finer than the voxel_size the user chose: one pass
+        return self
     merge_ncut: float | None = Field(
         0.022, ge=0, description="then join two touching objects when the cheapest normalized cut found in their union costs at least this (None: never join)"
     )

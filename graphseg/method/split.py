@@ -9,6 +9,9 @@ view, links neighbouring voxels (:func:`convexity_graph`; a link across a
 concave crease is weak), and bisects the graph by normalized cut
 (:func:`normalized_cut`, Shi & Malik 2000) while the best cut costs less than
 ``max_ncut``; every part becomes an object and every pixel follows its voxel.
+The pipeline (``config.split``) runs it twice: on a 6 mm grid, then on a 5 mm grid
+with the views' masks as a guard (``masks``, ``own_fraction``), which resolves the
+narrow seam where two objects touch but keeps a surface that the masks see as one.
 :func:`merge_objects` is the inverse: two touching objects whose union has no cut
 cheaper than ``min_ncut`` (above ``max_ncut``) are one body, the pieces of one object
 that the masks and matches never connected, and are joined.

@@ -178,6 +178,42 @@ def test_split_config_is_validated_and_on_in_the_presets_only():
         assert validation_message(err.value, Config).startswith(f"split.{field}: "), validation_message(err.value, Config)
 
 
+def test_the_fine_grid_is_finer_than_the_split_grid():
+    from pydantic import ValidationError
+
+    from graphseg.config import SplitConfig, validation_message
+
+    assert SplitConfig().fine_voxel_size == 0.005 and Config.preset("rgbd").split.fine_voxel_size == 0.005
+    with pytest.raises(ValidationError) as err:
+        Config.model_validate({"split": {"fine_voxel_size": 0.006}})
+    msg = validation_message(err.value, Config)
+    assert msg.startswith("split: ") and msg.endswith("expected fine_voxel_size < voxel_size (got 0.006 and 0.006)"), msg
+    assert SplitConfig(voxel_size=0.004).fine_voxel_size is None  # the default fine grid is not finer: one pass
+    assert SplitConfig(voxel_size=0.01).fine_voxel_size == 0.005 and SplitConfig(fine_voxel_size=None).fine_voxel_size is None
+    again = Config.model_validate(Config.preset("rgbd", split={"voxel_size": 0.004}).to_dict())  # a saved config loads again
+    assert again.split.fine_voxel_size is None
+
+
+def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(monkeypatch):
+    """The second pass: the fine grid, parts of the same area (200 voxels of 6 mm = 288 of 5 mm), the view masks as guard."""
+    import sys
+
+    seg_mod = sys.modules["graphseg.method.segment"]
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
+    matches = exact_matches(scene)
+    calls = []
+    real = seg_mod.split_objects
+    monkeypatch.setattr(seg_mod, "split_objects", lambda *a, **k: calls.append(k) or real(*a, **k))
+    res = segment(scene, masks, matches, Config.preset("rgbd"))
+    assert [(k["voxel_size"], k["min_voxels"], k["masks"] is not None, k["own_fraction"]) for k in calls] == [(0.006, 200, False, 0.0), (0.005, 288, True, 0.8)]
+    assert calls[1]["num_objects"] == 2 and [e["parts"] for e in res.info["split"]["fine_objects"]] == [1, 1]
+    calls.clear()
+    one = segment(scene, masks, matches, Config.preset("rgbd", split={"fine_voxel_size": None}))
+    assert len(calls) == 1 and "fine_objects" not in one.info["split"]
+    assert np.array_equal(np.stack(one.labels), np.stack(res.labels))  # two pure boxes: nothing left for the fine grid to cut
+
+
 def test_a_zero_concave_weight_removes_the_links_and_still_splits():
     two = np.r_[dome(0.0), dome(0.1)]
     lab = [np.ones((1, len(two)), np.int32)]
