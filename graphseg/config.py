@@ -305,17 +305,9 @@ class SplitConfig(_Model):
     own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
     own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
     fine_voxel_size: float | None = Field(
-        0.005, gt=0, description="then split again on this finer grid (metres), each part keeping the same surface area (None, or the default when voxel_size is not coarser: one pass)"
+        0.005, gt=0, description="then split again on this finer grid (metres), each part keeping the same surface area (None, or not below voxel_size: one pass)"
     )
     fine_own_fraction: float = Field(0.8, gt=0, le=1, description="a fine cut stands only where masks with this share of their pixels in one part cover it")
-
-    @model_validator(mode="after")
-    def _finer(self) -> SplitConfig:
-        if self.fine_voxel_size is not None and self.fine_voxel_size >= self.voxel_size:
-            if "fine_voxel_size" in self.model_fields_set:
-                raise ValueError(f"expected fine_voxel_size < voxel_size (got {self.fine_voxel_size} and {self.voxel_size})")
-            self.fine_voxel_size = None  # the default fine grid is not finer than the voxel_size the user chose: one pass
-        return self
     merge_ncut: float | None = Field(
         0.022, ge=0, description="then join two touching objects when the cheapest normalized cut found in their union costs at least this (None: never join)"
     )

@@ -892,8 +892,9 @@ def finish_segmentation(
         added, and ``timings`` (a copy) gets ``split`` (split and merge, when
         enabled), ``refine`` and ``trim`` (when enabled), ``outputs`` and ``total``. ``split`` (None
         when disabled) holds :func:`~graphseg.method.split.split_objects`'
-        ``objects`` and ``first_new`` (ids before any merge), the finer pass's
-        ``fine_objects`` (when ``split.fine_voxel_size`` is set), its ``merges``
+        ``objects`` and ``first_new`` (ids before any merge), the grid of the
+        finer pass, ``fine_voxel_size`` (None: one pass), and its ``fine_objects``
+        and ``fine_first_new``, then the merge's ``merges``
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
         ``merges``, and its ``mapping`` as a list, or None without a merge) and
         ``num_objects`` (the final count).
@@ -965,20 +966,22 @@ def finish_segmentation(
             num_objects=num_objects,
             rng=cfg.seed,
         )
-        if sp.fine_voxel_size is not None:  # the finer grid, parts of the same area; a cut stands only where the masks own its parts
+        fine_size = sp.fine_voxel_size if sp.fine_voxel_size is not None and sp.fine_voxel_size < sp.voxel_size else None
+        split_info["fine_voxel_size"] = fine_size
+        if fine_size is not None:  # the finer grid, parts of the same area; a cut stands only where the masks own its parts
             out_labels, fine = split_objects(
                 out_labels,
                 points,
                 cameras,
                 max_ncut=sp.max_ncut,
-                **{**graph_options, "voxel_size": sp.fine_voxel_size, "min_voxels": round(sp.min_voxels * (sp.voxel_size / sp.fine_voxel_size) ** 2)},
+                **{**graph_options, "voxel_size": fine_size, "min_voxels": round(sp.min_voxels * (sp.voxel_size / fine_size) ** 2)},
                 masks=labels,
                 own_fraction=sp.fine_own_fraction,
                 own_cover=sp.own_cover,
                 num_objects=split_info["num_objects"],
                 rng=cfg.seed,
             )
-            split_info["fine_objects"], split_info["num_objects"] = fine["objects"], fine["num_objects"]
+            split_info["fine_objects"], split_info["fine_first_new"], split_info["num_objects"] = fine["objects"], fine["first_new"], fine["num_objects"]
         changed = split_info["num_objects"] > num_objects
         split_info["merges"], split_info["merge_mapping"] = [], None
         if sp.merge_ncut is not None:

@@ -178,20 +178,43 @@ def test_split_config_is_validated_and_on_in_the_presets_only():
         assert validation_message(err.value, Config).startswith(f"split.{field}: "), validation_message(err.value, Config)
 
 
-def test_the_fine_grid_is_finer_than_the_split_grid():
-    from pydantic import ValidationError
+def test_a_fine_grid_not_below_the_split_grid_means_one_pass(tmp_path):
+    """Resolved when the split runs, not in the config: a config that sets a coarse voxel_size
+    only, from a file over a preset or in lifted.split, loads and runs one pass."""
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances == 1, v.instances == 2] for v in scene.views]
+    assert Config.preset("rgbd").split.fine_voxel_size == 0.005
+    (tmp_path / "c.yaml").write_text("split:\n  voxel_size: 0.004\n")
+    cfg = Config.load(tmp_path / "c.yaml", base=Config.preset("rgbd"))
+    assert cfg.split.voxel_size == 0.004 and cfg.split.fine_voxel_size == 0.005  # kept as given
+    res = segment(scene, masks, exact_matches(scene), cfg)
+    assert res.info["split"]["fine_voxel_size"] is None and "fine_objects" not in res.info["split"]
+    lifted = Config.preset("rgbd", lifted={"split": {"voxel_size": 0.004}}).for_lifter("sfm").split
+    assert lifted.voxel_size == 0.004 and lifted.fine_voxel_size == 0.005
+    assert Config.model_validate(cfg.to_dict()) == cfg
 
-    from graphseg.config import SplitConfig, validation_message
 
-    assert SplitConfig().fine_voxel_size == 0.005 and Config.preset("rgbd").split.fine_voxel_size == 0.005
-    with pytest.raises(ValidationError) as err:
-        Config.model_validate({"split": {"fine_voxel_size": 0.006}})
-    msg = validation_message(err.value, Config)
-    assert msg.startswith("split: ") and msg.endswith("expected fine_voxel_size < voxel_size (got 0.006 and 0.006)"), msg
-    assert SplitConfig(voxel_size=0.004).fine_voxel_size is None  # the default fine grid is not finer: one pass
-    assert SplitConfig(voxel_size=0.01).fine_voxel_size == 0.005 and SplitConfig(fine_voxel_size=None).fine_voxel_size is None
-    again = Config.model_validate(Config.preset("rgbd", split={"voxel_size": 0.004}).to_dict())  # a saved config loads again
-    assert again.split.fine_voxel_size is None
+def test_the_fine_grid_parts_objects_the_split_grid_keeps_whole_where_the_masks_own_the_parts():
+    """Two touching boxes joined by view 0's mask, which covers both; views 1 and 2 have a mask per box.
+    A 12 mm grid finds no cut; the 6 mm pass does, and the masks of views 1 and 2 own its parts."""
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    matches, gt, pts = exact_matches(scene), [v.instances for v in scene.views], [v.points for v in scene.views]
+    v = scene.views
+    masks = [[v[0].instances > 0]] + [[w.instances == 1, w.instances == 2] for w in v[1:]]
+    coarse = {"voxel_size": 0.012, "min_voxels": 50, "merge_ncut": None}
+    one = segment(scene, masks, matches, Config.preset("rgbd", split={**coarse, "fine_voxel_size": None}))
+    assert one.num_objects == 1 and [e["parts"] for e in one.info["split"]["objects"]] == [1]
+    res = segment(scene, masks, matches, Config.preset("rgbd", split={**coarse, "fine_voxel_size": 0.006}))
+    assert res.num_objects == 2 and [e["parts"] for e in res.info["split"]["fine_objects"]] == [2]
+    assert res.info["split"]["fine_voxel_size"] == 0.006 and res.info["split"]["fine_first_new"] == 2
+    assert evaluate(res.labels, gt, pts)["mean"]["iou"] > 0.95
+    assert res.mask_object.tolist() == [1, 1, 2, 1, 2] and max(int(lab.max()) for lab in res.labels) == 2
+    assert res.object_points.num_nodes == 2
+    across = [[w.instances > 0] for w in v]  # every mask covers both boxes: no mask owns a part
+    guarded = segment(scene, across, matches, Config.preset("rgbd", split={**coarse, "fine_voxel_size": 0.006}))
+    assert guarded.num_objects == 1
+    unguarded = segment(scene, across, matches, Config.preset("rgbd", split={**coarse, "fine_voxel_size": 0.006, "fine_own_fraction": 0.01}))
+    assert unguarded.num_objects == 2  # the cut exists on the fine grid; only the guard keeps it from standing
 
 
 def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(monkeypatch):
