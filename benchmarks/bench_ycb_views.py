@@ -52,6 +52,7 @@ from graphseg.io import load_scene  # noqa: E402
 from graphseg.method.baselines import run_method  # noqa: E402
 from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
+from graphseg.testing.scenes import gt_cut_masks  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
 HALVES = {"tune": list(range(0, 20, 2)), "check": list(range(1, 20, 2))}
@@ -62,18 +63,6 @@ def frames(half: str, n: int) -> list[int]:
     """``n`` frames spread evenly over the half's 10 (first and last included)."""
     pool = HALVES[half]
     return [pool[i] for i in np.linspace(0, len(pool) - 1, n).round().astype(int)]
-
-
-def gt_cut(masks: list, scene) -> list:
-    """Every mask label image cut along the ground-truth instances (pure masks)."""
-    out = []
-    for lab, view in zip(masks, scene.views):
-        lab = np.asarray(lab)
-        gt = np.asarray(view.instances).astype(np.int64)
-        key = np.where(lab > 0, lab.astype(np.int64) * (int(gt.max()) + 2) + gt + 1, 0)
-        _, inv = np.unique(key, return_inverse=True)
-        out.append(inv.reshape(lab.shape).astype(np.int32))  # 0 stays 0: the smallest key
-    return out
 
 
 def _robust(contractor: object = "constrained", **update) -> Config:
@@ -119,7 +108,7 @@ def inputs(video: str, half: str, n: int, masks_kind: str, cache: Path | None):
     else:
         masks = compute_masks(scene, "geometric", cfg)
         if masks_kind == "gt-cut":
-            masks = gt_cut(masks, scene)
+            masks = gt_cut_masks(masks, scene)
     out = (scene, masks, compute_matches(scene, None, cfg))
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,3 @@
-import numpy as np
 import pytest
 
 from graphseg.config import Config
@@ -103,13 +102,10 @@ def test_the_fine_split_parts_touching_objects_on_real_frames(ycbv_root):
     from graphseg.io import load_scene
     from graphseg.metrics import evaluate
     from graphseg.pipeline import lift
+    from graphseg.testing.scenes import gt_cut_masks
 
     scene = lift(load_scene(ycbv_root / "0002", views=[0, 8, 18]))
-    masks = []
-    for v in scene.views:  # every geometric mask cut along the ground truth
-        lab, gt = GeometricSegmenter()(v).astype(np.int64), v.instances.astype(np.int64)
-        key = np.where(lab > 0, lab * (int(gt.max()) + 2) + gt + 1, 0)
-        masks.append(np.unique(key, return_inverse=True)[1].reshape(lab.shape).astype(np.int32))
+    masks = gt_cut_masks([GeometricSegmenter()(v) for v in scene.views], scene)
     out = {}
     for fine in (None, 0.005):
         r = run(scene, Config.preset("rgbd", split={"fine_voxel_size": fine}), masks=masks)

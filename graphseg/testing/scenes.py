@@ -19,7 +19,7 @@ from ..backends.segmenters.oracle_parts import split_mask
 from ..scene import Matches, Scene, View
 from ..sim.boxes import Box, intrinsics, look_at, render_boxes
 
-__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "exact_matches", "random_boxes", "demo_box_scene"]
+__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "gt_cut_masks", "exact_matches", "random_boxes", "demo_box_scene"]
 
 TWO_BOXES = (
     Box((-0.08, 0.0, 0.05), (0.08, 0.08, 0.10), yaw=0.3, color=(200, 60, 60)),
@@ -69,6 +69,26 @@ def oracle_part_masks(scene: Scene, parts: int = 2, *, rng: Any = None, table_ma
         if table_mask:
             masks.append((v.instances == 0) & np.isfinite(np.asarray(v.points, np.float32)).all(-1))
         out.append(masks)
+    return out
+
+
+def gt_cut_masks(masks: Sequence[np.ndarray], scene: Scene) -> list[np.ndarray]:
+    """Every mask label image ``[H, W]`` cut along the ground-truth instances: pure masks, ids 1.. per view (0 stays 0).
+
+    Examples
+    --------
+    >>> from graphseg.scene import View
+    >>> view = View("a", np.zeros((1, 4, 3), np.float32), instances=np.array([[0, 1, 1, 2]]))
+    >>> gt_cut_masks([np.array([[1, 1, 1, 1]])], Scene([view]))[0].tolist()
+    [[1, 2, 2, 3]]
+    """
+    out = []
+    for lab, view in zip(masks, scene.views):
+        lab = np.asarray(lab).astype(np.int64)
+        gt = np.asarray(view.instances).astype(np.int64)
+        key = np.where(lab > 0, lab * (int(gt.max()) + 2) + gt + 1, 0)
+        _, inv = np.unique(key, return_inverse=True)
+        out.append(inv.reshape(lab.shape).astype(np.int32))  # 0 stays 0: the smallest key
     return out
 
 
