@@ -87,8 +87,9 @@ def gt_cut_masks(masks: Sequence[np.ndarray], scene: Scene) -> list[np.ndarray]:
         lab = np.asarray(lab).astype(np.int64)
         gt = np.asarray(view.instances).astype(np.int64)
         key = np.where(lab > 0, lab * (int(gt.max()) + 2) + gt + 1, 0)
-        _, inv = np.unique(key, return_inverse=True)
-        out.append(inv.reshape(lab.shape).astype(np.int32))  # 0 stays 0: the smallest key
+        keys, inv = np.unique(key, return_inverse=True)
+        ids = inv if keys.size and keys[0] == 0 else inv + 1  # 0 stays 0; with no unlabelled pixel the first piece is 1
+        out.append(ids.reshape(lab.shape).astype(np.int32))
     return out
 
 
