@@ -126,8 +126,8 @@ class ObjectConfig(_Model):
     merge_seen: bool = Field(True, description="a one-view object that the other views see as one object with full support joins it")
 
 
-#: ``LiftedConfig.split``'s default: estimated points never join objects, and split below 0.025.
-_DEFAULT_LIFTED_SPLIT: dict[str, Any] = {"merge_ncut": None, "max_ncut": 0.025}
+#: ``LiftedConfig.split``'s default: estimated points never join objects by their 3D cut, split below 0.025, and join by border at 0.3.
+_DEFAULT_LIFTED_SPLIT: dict[str, Any] = {"merge_ncut": None, "max_ncut": 0.025, "join_shared": 0.3}
 _DEFAULT_LIFTED_TRIM: dict[str, Any] = {"enabled": True}
 
 
@@ -177,7 +177,10 @@ class LiftedConfig(_Model):
     convexity graph links strongly across it and the cut between them costs
     more than on measured depth (tuning half 0.686 -> 0.704; 0.015, 0.02 and
     0.03 gave 0.689, 0.696 and 0.695; measured with ``sfm`` only;
-    ``docs/results.md``). This default yields to the ``split`` section: a
+    ``docs/results.md``). Pieces of one object that share most of their image
+    border, with no depth step across it, are joined instead (``join_shared``
+    0.3, :func:`graphseg.method.join.join_objects`: tuning half 0.783 -> 0.800;
+    0.35 and 0.4 gave 0.795 and 0.791). This default yields to the ``split`` section: a
     field the user changed there from its :class:`SplitConfig` default (say
     ``split.max_ncut``) keeps the user's value for estimated points too. A
     ``lifted.split`` given by the user replaces the whole default and goes on
@@ -208,7 +211,7 @@ class LiftedConfig(_Model):
     objects: dict[str, Any] = Field(default_factory=dict, description="ObjectConfig fields applied on top of the objects section")
     split: dict[str, Any] = Field(
         default_factory=lambda: dict(_DEFAULT_LIFTED_SPLIT),
-        description="SplitConfig fields applied on top of the split section (default: estimated points never join objects, and split below 0.025, unless the split section changed those fields)",
+        description="SplitConfig fields applied on top of the split section (default: estimated points never join objects by their 3D cut, split below 0.025 and join pieces by border at 0.3, unless the split section changed those fields)",
     )
     backend_options: dict[str, dict[str, Any]] = Field(
         default_factory=lambda: {"reprojection": {"max_color_distance": 30.0}}, description="backend name -> options for estimated points (backends.options still wins)"
@@ -291,8 +294,13 @@ class SplitConfig(_Model):
     Then touching objects whose union no cut below ``merge_ncut``
     separates are joined (:func:`graphseg.method.split.merge_objects`, on the
     ``voxel_size`` grid): the pieces of one object that the masks and matches
-    left apart. Chosen on the tune halves of ``bench_ycb_views.py`` and
-    ``bench_rgb_only.py`` (``docs/results.md``).
+    left apart. Last, two objects whose border in the images, with no depth
+    step across it, is at least ``join_shared`` of the smaller one's outline
+    are joined (:func:`graphseg.method.join.join_objects`): pieces too small
+    or too interleaved (the stripes of one box) for the 3D cut. Off for
+    measured depth, on for estimated points (``lifted.split``). Chosen on the
+    tune halves of ``bench_ycb_views.py`` and ``bench_rgb_only.py``
+    (``docs/results.md``).
     """
 
     enabled: bool = Field(False, description="split objects whose fused 3D points fall into parts joined by a cheap normalized cut")
@@ -310,6 +318,11 @@ class SplitConfig(_Model):
     fine_own_fraction: float = Field(0.8, gt=0, le=1, description="a fine cut stands only where masks with this share of their pixels in one part cover it")
     merge_ncut: float | None = Field(
         0.022, ge=0, description="then join two touching objects when the cheapest normalized cut found in their union costs at least this (None: never join)"
+    )
+    join_shared: float | None = Field(
+        None,
+        ge=0,
+        description="last, join two objects whose border without a depth step is at least this share of the smaller one's outline in the views (None: never)",
     )
 
 

@@ -246,14 +246,15 @@ def test_lifted_points_get_their_own_criterion_options():
     assert off.for_lifter("sfm") is off
     assert cfg.split.merge_ncut == 0.022 and sfm.split.merge_ncut is None  # estimated points never join objects
     assert cfg.split.max_ncut == 0.012 and sfm.split.max_ncut == 0.025  # estimated points split at dearer cuts
-    assert sfm.split.model_dump(exclude={"merge_ncut", "max_ncut"}) == cfg.split.model_dump(exclude={"merge_ncut", "max_ncut"})  # the rest kept
+    assert cfg.split.join_shared is None and sfm.split.join_shared == 0.3  # estimated points join pieces by their border
+    assert sfm.split.model_dump(exclude={"merge_ncut", "max_ncut", "join_shared"}) == cfg.split.model_dump(exclude={"merge_ncut", "max_ncut", "join_shared"})  # the rest kept
     mine = Config.preset("rgbd", lifted={"split": {"max_ncut": 0.02}}).for_lifter("sfm").split
     assert mine.max_ncut == 0.02 and mine.merge_ncut == 0.022  # the user's lifted.split replaces the whole default
     own = Config.preset("rgbd", split={"max_ncut": 0.015}).for_lifter("sfm").split
     assert own.max_ncut == 0.015 and own.merge_ncut is None  # a split field the user changed wins over the default
     both = Config.preset("rgbd", split={"max_ncut": 0.015}, lifted={"split": {"max_ncut": 0.02}}).for_lifter("sfm").split
     assert both.max_ncut == 0.02  # ... but not over the user's own lifted.split
-    assert cfg.split.max_ncut == 0.012 and cfg.lifted.split == {"merge_ncut": None, "max_ncut": 0.025}  # nothing mutated
+    assert cfg.split.max_ncut == 0.012 and cfg.lifted.split == {"merge_ncut": None, "max_ncut": 0.025, "join_shared": 0.3}  # nothing mutated
     joins = Config.preset("rgbd", lifted={"split": {}}).for_lifter("sfm")
     assert joins.split == cfg.split
     with pytest.raises(ValidationError, match="merge_sen"):

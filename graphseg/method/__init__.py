@@ -1,6 +1,7 @@
-"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, per-pixel refinement, rim trimming."""
+"""The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, joining by border, per-pixel refinement, rim trimming."""
 
 from .background import BackgroundInfo, background_masks, fit_table_plane
+from .join import join_objects
 from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
 from .refine import project_to_view, refine_labels
@@ -19,6 +20,7 @@ __all__ = [
     "segment",
     "split_objects",
     "merge_objects",
+    "join_objects",
     "refine_labels",
     "project_to_view",
     "trim_rims",

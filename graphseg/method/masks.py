@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["compose_masks", "paint_masks", "majority_objects"]
+__all__ = ["compose_masks", "paint_masks", "majority_objects", "rename_objects"]
 
 
 def compose_masks(
@@ -227,4 +227,40 @@ def majority_objects(masks: Sequence[np.ndarray], labels: Sequence[np.ndarray], 
         rows = hist[ids[sel] + 1]
         has = rows.sum(1) > 0
         out[sel[has]] = rows[has].argmax(1)
+    return out
+
+
+def rename_objects(labels: Sequence[np.ndarray], mapping: np.ndarray | None) -> list[np.ndarray]:
+    """Object ids per view renamed by a lookup table; labels <= 0 are kept.
+
+    Parameters
+    ----------
+    labels : list of int ``[H, W]``
+        Object ids per view (<= 0 = none).
+    mapping : int ``[T + 1]`` or None
+        The new id of every old id ``0..T`` (labels above ``T`` take
+        ``mapping[T]``); None copies the labels.
+
+    Returns
+    -------
+    list of int ``[H, W]``
+        New arrays of the input dtypes (the inputs are not modified).
+
+    Notes
+    -----
+    O(total pixels).
+
+    Examples
+    --------
+    >>> rename_objects([np.array([[0, 1, 2, 3, -1]], np.int32)], np.array([0, 1, 1, 2]))[0].tolist()
+    [[0, 1, 1, 2, -1]]
+    """
+    out = []
+    for lab in labels:
+        lab = np.asarray(lab)
+        if mapping is None:
+            out.append(np.array(lab, copy=True))
+            continue
+        top = len(mapping) - 1
+        out.append(np.where(lab > 0, np.asarray(mapping)[np.clip(lab, 0, top).astype(np.int64)], lab).astype(lab.dtype))
     return out

@@ -43,6 +43,7 @@ from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
+from .join import join_objects
 from .masks import compose_masks, majority_objects, paint_masks
 from .refine import project_to_view, refine_labels
 from .split import merge_objects, split_objects
@@ -896,8 +897,9 @@ def finish_segmentation(
         finer pass, ``fine_voxel_size`` (None: one pass), and its ``fine_objects``
         and ``fine_first_new``, then the merge's ``merges``
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
-        ``merges``, and its ``mapping`` as a list, or None without a merge) and
-        ``num_objects`` (the final count).
+        ``merges``, and its ``mapping`` as a list, or None without a merge), the
+        ``joins`` of :func:`~graphseg.method.join.join_objects` (``split.join_shared``;
+        empty when off) and ``num_objects`` (the final count).
     start : float, optional, keyword-only
         :func:`time.perf_counter` at the start of the run, for
         ``timings["total"]`` (None: not recorded).
@@ -994,6 +996,13 @@ def finish_segmentation(
                 obj = merged["mapping"][obj]
                 split_info["num_objects"] = merged["num_objects"]
                 changed = True
+        split_info["joins"] = []
+        if sp.join_shared is not None:
+            out_labels, joined = join_objects(out_labels, points, cameras, min_shared=sp.join_shared, num_objects=split_info["num_objects"])
+            if joined["joins"]:
+                split_info["joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
+                obj = joined["mapping"][obj]
+                changed = True
         if changed:
             obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
             num_objects = split_info["num_objects"]
@@ -1013,7 +1022,7 @@ def finish_segmentation(
         out_labels, trim_info = trim_rims(out_labels, [v.rgb for v in views], window=tr.window, rim=tr.rim, blur=tr.blur)
         timings["trim"] = time.perf_counter() - t_trim
     area = None
-    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges")):  # the split or merge changed objects
+    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges") or split_info.get("joins")):  # the split, merge or join changed objects
         sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
         area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)

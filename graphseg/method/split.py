@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..graphs import combine_keys, group_by_key
+from .masks import rename_objects
 
 __all__ = ["convexity_graph", "merge_objects", "normalized_cut", "split_objects", "voxelize"]
 
@@ -619,8 +620,4 @@ def merge_objects(
         freed = np.zeros(top + 1, np.int64)
         freed[[m["ids"][1] for m in merges]] = 1
         mapping = mapping - np.cumsum(freed)[mapping]
-    out = []
-    for lab_ in labels:
-        lab_ = np.asarray(lab_)
-        out.append(np.where(lab_ > 0, mapping[np.clip(lab_, 0, top).astype(np.int64)], lab_).astype(lab_.dtype) if merges else np.array(lab_, copy=True))
-    return out, {"merges": merges, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}
+    return rename_objects(labels, mapping if merges else None), {"merges": merges, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}

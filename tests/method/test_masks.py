@@ -89,3 +89,16 @@ def test_paint_masks_shape_and_values():
     assert out[1].tolist() == [[6, 0, 0], [0, 0, 0]]
     assert paint_masks([np.zeros((1, 2), np.int64)], np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))[0].tolist() == [[0, 0]]
     assert paint_masks(masks, np.array([0]), np.array([0]), np.array([3]), dtype=np.int32)[0].dtype == np.int32
+
+
+def test_rename_objects_by_hand_and_edge_cases():
+    from graphseg.method.masks import rename_objects
+
+    lab = np.array([[0, 1, 2, 3], [3, 2, -1, 0]], np.int16)
+    before = lab.copy()
+    out = rename_objects([lab, lab[:1]], np.array([0, 1, 1, 2]))
+    assert [o.tolist() for o in out] == [[[0, 1, 1, 2], [2, 1, -1, 0]], [[0, 1, 1, 2]]]
+    assert out[0].dtype == np.int16 and (lab == before).all()  # same dtype, input kept
+    copy = rename_objects([lab], None)[0]
+    assert copy.tolist() == lab.tolist() and copy is not lab
+    assert rename_objects([], np.array([0])) == []
