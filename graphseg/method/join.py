@@ -114,7 +114,7 @@ def border_contact(
         P = np.asarray(pts, np.float64)
         if L.shape != P.shape[:2]:
             raise ValueError(f"expected points of shape [{L.shape[0]}, {L.shape[1]}, 3] (got {list(P.shape)})")
-        dist = np.linalg.norm(P - np.asarray(pose, np.float64)[:3, 3], axis=-1)
+        eye = np.asarray(pose, np.float64)[:3, 3]
         for sa, sb in (((slice(None), slice(None, -1)), (slice(None), slice(1, None))), ((slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
             a, b = L[sa], L[sb]
             diff = a != b
@@ -122,8 +122,9 @@ def border_contact(
             both = diff & (a > 0) & (b > 0)
             if not both.any():
                 continue
-            gap = np.linalg.norm(P[sa][both] - P[sb][both], axis=-1)
-            near = np.minimum(dist[sa][both], dist[sb][both])
+            pa, pb = P[sa][both], P[sb][both]
+            gap = np.linalg.norm(pa - pb, axis=-1)
+            near = np.minimum(np.linalg.norm(pa - eye, axis=-1), np.linalg.norm(pb - eye, axis=-1))
             touch = np.isfinite(gap) & (gap <= depth_abs + depth_rel * np.nan_to_num(near))
             lo, hi = np.minimum(a[both], b[both]), np.maximum(a[both], b[both])
             between += np.bincount(lo * k + hi, minlength=k * k)

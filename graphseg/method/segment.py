@@ -44,7 +44,7 @@ from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
 from .join import join_objects
-from .masks import compose_masks, majority_objects, paint_masks
+from .masks import compose_masks, majority_objects, paint_masks, snap_to_masks
 from .refine import project_to_view, refine_labels
 from .split import merge_objects, split_objects
 from .trim import trim_rims
@@ -899,7 +899,8 @@ def finish_segmentation(
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
         ``merges``, and its ``mapping`` as a list, or None without a merge), the
         ``joins`` of :func:`~graphseg.method.join.join_objects` (``split.join_shared``;
-        empty when off) and ``num_objects`` (the final count).
+        empty when off), ``snapped`` (the pixels :func:`~graphseg.method.masks.snap_to_masks`
+        relabelled; ``split.snap_share``) and ``num_objects`` (the final count).
     start : float, optional, keyword-only
         :func:`time.perf_counter` at the start of the run, for
         ``timings["total"]`` (None: not recorded).
@@ -1003,6 +1004,15 @@ def finish_segmentation(
                 split_info["joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
                 obj = joined["mapping"][obj]
                 changed = True
+        split_info["snapped"] = 0
+        if sp.snap_share is not None:  # masks the voxel border cut a few pixels off go back whole to their object
+            out_labels, snapped = snap_to_masks(out_labels, labels, sp.snap_share)
+            split_info["snapped"] = snapped["pixels"]
+            if snapped["pixels"]:
+                if snapped["mapping"] is not None:
+                    obj = snapped["mapping"][np.clip(obj, 0, snapped["mapping"].size - 1)]
+                    split_info["num_objects"] = snapped["num_objects"]
+                changed = True
         if changed:
             obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
             num_objects = split_info["num_objects"]
@@ -1022,7 +1032,7 @@ def finish_segmentation(
         out_labels, trim_info = trim_rims(out_labels, [v.rgb for v in views], window=tr.window, rim=tr.rim, blur=tr.blur)
         timings["trim"] = time.perf_counter() - t_trim
     area = None
-    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges") or split_info.get("joins")):  # the split, merge or join changed objects
+    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges") or split_info.get("joins") or split_info.get("snapped")):  # the split, merge, join or snap changed objects
         sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
         area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)

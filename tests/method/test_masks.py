@@ -102,3 +102,44 @@ def test_rename_objects_by_hand_and_edge_cases():
     copy = rename_objects([lab], None)[0]
     assert copy.tolist() == lab.tolist() and copy is not lab
     assert rename_objects([], np.array([0])) == []
+
+
+def test_snap_to_masks_by_hand():
+    from graphseg.method.masks import snap_to_masks
+
+    masks = [np.array([[1, 1, 1, 1, 1, 2, 2, 2, 2, 0]], np.int32)]
+    lab = np.array([[3, 3, 3, 3, 1, 1, 1, 3, 3, 2]], np.int16)  # mask 1: 4 of 5 in 3; mask 2: 2 of 4; id 2 outside any mask
+    before = lab.copy()
+    out, info = snap_to_masks([lab], masks, 0.8)
+    assert out[0].tolist() == [[3, 3, 3, 3, 3, 1, 1, 3, 3, 2]] and out[0].dtype == np.int16
+    assert info == {"pixels": 1, "masks": 1, "mapping": None, "num_objects": 3}
+    assert (lab == before).all()  # the input is not modified
+    out, info = snap_to_masks([lab], masks, 0.9)  # 4 of 5 is below 0.9: nothing moves
+    assert out[0].tolist() == lab.tolist() and info["pixels"] == 0 and out[0] is not lab
+
+
+def test_snap_to_masks_frees_the_id_of_an_object_it_empties():
+    from graphseg.method.masks import snap_to_masks
+
+    masks = [np.array([[1, 1, 1, 1, 1, 1, 2, 2]]), np.array([[1, 1, 0, 0, 0, 0, 0, 0]])]
+    lab = [np.array([[1, 1, 1, 1, 1, 2, 3, 3]]), np.array([[3, 0, -1, 0, 0, 0, 0, 0]])]  # object 2: one pixel of mask 1
+    out, info = snap_to_masks(lab, masks, 0.8)
+    assert info["mapping"].tolist() == [0, 1, 0, 2] and info["num_objects"] == 2
+    assert out[0].tolist() == [[1, 1, 1, 1, 1, 1, 2, 2]]
+    assert out[1].tolist() == [[2, 0, -1, 0, 0, 0, 0, 0]]  # unlabelled and negative pixels stay as they are
+
+
+def test_snap_to_masks_edge_cases():
+    from graphseg.method.masks import snap_to_masks
+
+    lab = [np.array([[1, 2]])]
+    masks = [np.array([[1, 1]])]
+    assert snap_to_masks(lab, masks, np.inf)[1]["pixels"] == 0  # never snap
+    assert snap_to_masks([np.zeros((2, 2), np.int32)], [np.ones((2, 2), np.int32)], 0.9)[1] == {"pixels": 0, "masks": 0, "mapping": None, "num_objects": 0}
+    assert snap_to_masks([], [], 0.9)[0] == []
+    with pytest.raises(ValueError, match="min_share > 0.5"):
+        snap_to_masks(lab, masks, 0.5)
+    with pytest.raises(ValueError, match="masks for the 1 views"):
+        snap_to_masks(lab, [], 0.9)
+    with pytest.raises(ValueError, match=r"expected masks of shape \[1, 2\] \(got \[2, 2\]\)"):
+        snap_to_masks(lab, [np.ones((2, 2), np.int32)], 0.9)

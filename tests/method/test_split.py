@@ -359,3 +359,33 @@ def test_cut_cost_of_two_cliques_by_hand():
     side = np.arange(8) < 4
     assert _cut_cost(csr_matrix(W), side) == pytest.approx(2 * 0.1 / 12.1)  # the same cut normalized_cut finds
     assert _cut_cost(csr_matrix(W), np.zeros(8, bool)) == float("inf")  # one side empty
+
+
+def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypatch):
+    """A split that moves a few pixels of a pure mask into the other box: the snap gives them back."""
+    import sys
+
+    seg_mod = sys.modules["graphseg.method.segment"]
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
+    real = seg_mod.split_objects
+
+    def ragged(*a, **k):  # the real split, then 5% of box 1's pixels in view 0 moved to box 2
+        out, info = real(*a, **k)
+        lab = out[0].copy()
+        rows, cols = np.nonzero(lab == 1)
+        lab[rows[::20], cols[::20]] = 2
+        return [lab, *out[1:]], info
+
+    monkeypatch.setattr(seg_mod, "split_objects", ragged)
+    gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={"snap_share": None}))
+    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd"))
+    assert off.info["split"]["snapped"] == 0 and res.info["split"]["snapped"] > 0
+    assert evaluate(res.labels, gt, pts)["mean"]["iou"] > evaluate(off.labels, gt, pts)["mean"]["iou"]
+    assert res.num_objects == 2 and len(np.unique(res.labels[0][scene.views[0].instances == 1])) == 1
+    assert sorted(set(res.mask_object.tolist())) == [1, 2]
+    assert Config.preset("rgbd").split.snap_share == 0.85 and Config.preset("rgbd").for_lifter("sfm").split.snap_share == 0.85
+    assert Config().split.snap_share is None and Config.preset("robust").split.snap_share is None
+    with pytest.raises(ValueError, match="snap_share"):
+        Config.preset("rgbd", split={"snap_share": 0.5})
