@@ -301,9 +301,11 @@ class SplitConfig(_Model):
     measured depth, on for estimated points (``lifted.split``). Then every
     mask with at least ``snap_share`` of its labelled pixels in one object is
     given wholly to it (:func:`graphseg.method.masks.snap_to_masks`): the
-    voxel border cut a few pixels off a mask that lies in one object (0.85 in
-    the ``rgbd`` preset; off by default and in ``robust``, where it lowered
-    YCB-Video 0002 at 10 views). Chosen
+    voxel border cut a few pixels off a mask that lies in one object. It is
+    off by default and in every preset: at 0.85 it raised masks cut along
+    the ground truth on YCB-Video 0002 by 0.03-0.05, but lowered the
+    ``superpixel`` rows of ``bench_quality.py`` and ``robust`` on 0002 at 10
+    views. Chosen
     on the tune halves of ``bench_ycb_views.py`` and ``bench_rgb_only.py``
     (``docs/results.md``).
     """

@@ -27,10 +27,7 @@ PRESETS: dict[str, dict[str, Any]] = {
             [{"chamfer_3d": {"tau": TAU_3D_OFFICIAL}}],
         ],
         "background": {"max_overlap": 0.5},
-        # snap: masks the voxel border cut a few pixels off go back whole to their object (issue 21,
-        # round 16; chosen on the tune halves; robust and multicut keep it off: it lowered robust on
-        # YCB-Video 0002 at 10 views, 0.865 -> 0.845)
-        "split": {"enabled": True, "snap_share": 0.85},
+        "split": {"enabled": True},
     },
     # rgbd plus the robust contraction of issue 12 (measured in docs/results.md, "Robust contraction")
     "robust": {
