@@ -11,7 +11,8 @@ with no depth step between their points (``depth_abs + depth_rel * distance``
 to the camera, the geometric segmenter's cut rule), and every object's outline;
 :func:`join_objects` joins each object to the object with a longer outline
 whose contact is the largest share of its own outline, when that share is at
-least ``min_shared``: a piece joins one object, so a fragment never bridges two.
+least ``min_shared``: a piece joins one object, so a fragment never bridges two
+objects larger than itself (smaller pieces may still join it first).
 It is an image-space complement to
 :func:`graphseg.method.split.merge_objects`, which needs a few hundred voxels
 per object and misses small or interleaved pieces.
@@ -150,8 +151,10 @@ def join_objects(
     smaller of their two outlines. Each object joins at most one object with a
     longer outline (ties: the larger id), the one of highest share, so a
     fragment goes to one object by its strongest evidence and never bridges
-    two others; two large objects are joined only by their own contact. The
-    shares are measured once, on the objects as given.
+    two objects with longer outlines than its own: those are joined only by
+    their own contact. Joins chain upwards (a smaller piece joined to the
+    fragment comes along). The shares are measured once, on the objects as
+    given.
 
     Parameters
     ----------

@@ -266,7 +266,9 @@ def rename_objects(labels: Sequence[np.ndarray], mapping: np.ndarray | None) -> 
     return out
 
 
-def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min_share: float) -> tuple[list[np.ndarray], dict[str, Any]]:
+def snap_to_masks(
+    labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min_share: float, *, num_objects: int | None = None
+) -> tuple[list[np.ndarray], dict[str, Any]]:
     """Give every mask that one object mostly holds wholly to that object.
 
     After a per-pixel step (the 3D split) the border between two objects
@@ -275,7 +277,8 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
     pixels in one object has all its labelled pixels relabelled to that
     object; a mask split more evenly (one that straddles two touching
     objects) keeps the per-pixel labels. An object left without pixels frees
-    its id, and the ids above it move down.
+    its id, and the ids above it move down; its old id maps to the object
+    that took most of its pixels (so a mask still pointing at it follows them).
 
     Parameters
     ----------
@@ -286,6 +289,8 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
     min_share : float
         Share of a mask's labelled pixels its main object must hold (in
         ``(0.5, 1]``; ``inf``: never snap).
+    num_objects : int, optional, keyword-only
+        The largest object id in use (default: the largest in ``labels``).
 
     Returns
     -------
@@ -293,8 +298,9 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
         New arrays of the input dtypes (the inputs are not modified).
     info : dict
         ``pixels``: pixels relabelled over all views; ``masks``: masks that
-        changed; ``mapping``: int64 ``[T + 1]``, the new id of every old id
-        (None when no id was freed); ``num_objects``: the largest id now.
+        changed; ``mapping``: int64 ``[T + 1]``, the new id of every old id,
+        a freed one's being the new id of the object that took most of its
+        pixels (None when no id was freed); ``num_objects``: the largest id now.
 
     Notes
     -----
@@ -313,7 +319,8 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
     if len(masks) != len(labels):
         raise ValueError(f"expected masks for the {len(labels)} views (got {len(masks)})")
     out = [np.array(lab, copy=True) for lab in labels]
-    top = int(max((int(np.max(lab)) for lab in out if lab.size), default=0))
+    top = max(int(max((int(np.max(lab)) for lab in out if lab.size), default=0)), int(num_objects or 0))
+    took = np.zeros((top + 1, top + 1), np.int64)  # pixels moved from one object (row) to another (column)
     before = np.zeros(top + 1, bool)
     for lab in out:
         before[np.clip(lab, 0, top).ravel()] = True
@@ -336,6 +343,7 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
             continue
         move = keep & snap[m] & (ob != best[m])
         flat = lab.reshape(-1)
+        np.add.at(took, (ob[move], best[m[move]]), 1)
         flat[move] = best[m[move]].astype(lab.dtype)
         pixels += int(move.sum())
         changed += int(snap.sum())
@@ -348,7 +356,8 @@ def snap_to_masks(labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min
         gone[0] = False
         if gone.any():  # only ids this step emptied move; an id that was already unused stays as it was
             mapping = np.arange(top + 1, dtype=np.int64) - np.cumsum(gone)
-            mapping[gone] = 0
+            heir = took.argmax(1)  # where most of each object's moved pixels went (never an emptied id: those hold no pixels now)
+            mapping[gone] = mapping[heir[gone]]
             out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
     return out, {"pixels": pixels, "masks": changed, "mapping": mapping, "num_objects": num}

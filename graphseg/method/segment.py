@@ -1006,11 +1006,11 @@ def finish_segmentation(
                 changed = True
         split_info["snapped"] = 0
         if sp.snap_share is not None:  # masks the voxel border cut a few pixels off go back whole to their object
-            out_labels, snapped = snap_to_masks(out_labels, labels, sp.snap_share)
+            out_labels, snapped = snap_to_masks(out_labels, labels, sp.snap_share, num_objects=split_info["num_objects"])
             split_info["snapped"] = snapped["pixels"]
             if snapped["pixels"]:
                 if snapped["mapping"] is not None:
-                    obj = snapped["mapping"][np.clip(obj, 0, snapped["mapping"].size - 1)]
+                    obj = snapped["mapping"][obj]
                     split_info["num_objects"] = snapped["num_objects"]
                 changed = True
         if changed:

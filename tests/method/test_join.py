@@ -149,8 +149,21 @@ def test_segment_joins_stripes_of_one_box_for_estimated_points_only():
 
 def test_a_fragment_joins_one_object_and_never_bridges_two():
     lab = np.zeros((20, 24), np.int32)
-    lab[4:16, 2:11], lab[4:16, 13:22] = 1, 2  # two objects 2 pixels apart
-    lab[8:12, 11:13] = 3  # a fragment in the gap, touching both: its whole outline but the top and bottom
+    lab[4:16, 2:11], lab[4:16, 11:20] = 1, 2  # two touching objects: contact 9 of an outline of 42
+    lab[13:16, 9:13] = 3  # a fragment in the bottom of their seam: 5 of its 14 outline pairs on each
+    outline, between, contact = border_contact([lab], [flat(20, 24)], [CAM])
+    assert contact[1, 2] / min(outline[1], outline[2]) < 0.3 <= contact[1, 3] / outline[3]
+    # measured again after the fragment joined 1, the pair would reach 0.3: a re-measuring rule bridges here
+    assert (contact[1, 2] + contact[2, 3]) / min(outline[1] + outline[3] - 2 * between[1, 3], outline[2]) >= 0.3
     out, info = join_objects([lab], [flat(20, 24)], [CAM])
-    assert len(info["joins"]) == 1 and info["joins"][0]["ids"][0] == 3 and info["num_objects"] == 2
-    assert np.unique(out[0]).tolist() == [0, 1, 2] and (out[0][4:16, 2:11] != out[0][4:16, 13:22][:, ::-1]).all()
+    assert [j["ids"] for j in info["joins"]] == [[3, 1]] and info["num_objects"] == 2  # equal shares: the smaller id
+    assert np.unique(out[0]).tolist() == [0, 1, 2] and (out[0][4:16, 2:9] == 1).all() and (out[0][4:13, 11:20] == 2).all()
+
+
+def test_smaller_pieces_come_along_when_their_piece_joins():
+    lab = np.zeros((20, 24), np.int32)
+    lab[4:16, 2:14] = 1  # a large object
+    lab[8:12, 14:16] = 2  # a piece on its right side: 4 of its 12 outline pairs on 1
+    lab[9:11, 16] = 3  # a smaller piece touching only the piece: 2 of 6
+    out, info = join_objects([lab], [flat(20, 24)], [CAM])
+    assert sorted(j["ids"] for j in info["joins"]) == [[2, 1], [3, 2]] and np.unique(out[0]).tolist() == [0, 1]

@@ -124,9 +124,11 @@ def test_snap_to_masks_frees_the_id_of_an_object_it_empties():
     masks = [np.array([[1, 1, 1, 1, 1, 1, 2, 2]]), np.array([[1, 1, 0, 0, 0, 0, 0, 0]])]
     lab = [np.array([[1, 1, 1, 1, 1, 2, 3, 3]]), np.array([[3, 0, -1, 0, 0, 0, 0, 0]])]  # object 2: one pixel of mask 1
     out, info = snap_to_masks(lab, masks, 0.8)
-    assert info["mapping"].tolist() == [0, 1, 0, 2] and info["num_objects"] == 2
+    assert info["mapping"].tolist() == [0, 1, 1, 2] and info["num_objects"] == 2  # 2's pixel went to 1: so does its id
     assert out[0].tolist() == [[1, 1, 1, 1, 1, 1, 2, 2]]
     assert out[1].tolist() == [[2, 0, -1, 0, 0, 0, 0, 0]]  # unlabelled and negative pixels stay as they are
+    out, info = snap_to_masks(lab, masks, 0.8, num_objects=4)  # ids in use beyond the labels' largest move down too
+    assert info["mapping"].tolist() == [0, 1, 1, 2, 3] and info["num_objects"] == 3
 
 
 def test_snap_to_masks_edge_cases():

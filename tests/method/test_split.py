@@ -388,3 +388,35 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
     assert Config().split.snap_share is None and Config.preset("rgbd").split.snap_share is None  # off by default (bench_quality's superpixel rows)
     with pytest.raises(ValueError, match="snap_share"):
         Config.preset("rgbd", split={"snap_share": 0.5})
+
+
+def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_took_its_pixels(monkeypatch):
+    import sys
+
+    seg_mod = sys.modules["graphseg.method.segment"]
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
+    real = seg_mod.split_objects
+
+    def shuffled(*a, **k):  # a split that gives 90% of box 1 a new id 3 and leaves 10% as 1
+        out, info = real(*a, **k)
+        new = []
+        for lab in out:
+            lab = lab.copy()
+            rows, cols = np.nonzero(lab == 1)
+            moved = np.ones(rows.size, bool)
+            moved[::10] = False
+            lab[rows[moved], cols[moved]] = 3
+            new.append(lab)
+        return new, {**info, "num_objects": 3}
+
+    monkeypatch.setattr(seg_mod, "split_objects", shuffled)
+    base = {"merge_ncut": None, "fine_voxel_size": None}
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split=base))
+    assert off.num_objects == 3 and off.mask_object.tolist() == [3, 2] * 3
+    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "snap_share": 0.85}))
+    assert res.num_objects == 2 and res.info["split"]["snapped"] > 0
+    assert res.mask_object.tolist() == [2, 1] * 3  # no mask dropped: box 1's masks follow their pixels to id 3, now 2
+    assert res.graphs[-1].node_attr["object"].tolist() == [2, 1]
+    for v, lab in zip(scene.views, res.labels):
+        assert np.unique(lab[v.instances == 1]).tolist() == [2] and np.unique(lab[v.instances == 2]).tolist() == [1]
