@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from .masks import rename_objects
+from .masks import close_id_gaps, rename_objects
 
 __all__ = ["border_contact", "join_objects"]
 
@@ -199,7 +199,7 @@ def join_objects(
     share[0], share[:, 0] = 0.0, 0.0
     best = share.argmax(1)  # each object's larger partner of highest share (the first of equal shares: smallest id)
     value = share[ids, best]
-    piece = np.flatnonzero((value >= min_shared) & (value > 0)) if np.isfinite(min_shared) else np.zeros(0, np.int64)
+    piece = np.flatnonzero((value >= min_shared) & (value > 0))  # shares are at most 1: inf never joins
     piece = piece[np.argsort(-value[piece], kind="stable")]
     joins = [{"ids": [int(a), int(best[a])], "shared": round(float(value[a]), 6)} for a in piece]
     root = ids.copy()  # the pointers run to a longer outline: follow them to the end of each chain
@@ -211,9 +211,6 @@ def join_objects(
         root = nxt
     first = np.full(top + 1, top + 1, np.int64)
     np.minimum.at(first, root, ids)  # each group's smallest id
-    mapping = first[root]
-    if joins:
-        kept = np.zeros(top + 1, np.int64)
-        kept[np.unique(mapping)] = 1
-        mapping = np.cumsum(kept)[mapping] - 1  # 0 is its own group: it stays 0
+    representative = first[root]
+    mapping = close_id_gaps(representative, representative != ids)
     return rename_objects(labels, mapping if joins else None), {"joins": joins, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}

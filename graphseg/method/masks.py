@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["compose_masks", "paint_masks", "majority_objects", "rename_objects", "snap_to_masks"]
+__all__ = ["compose_masks", "paint_masks", "majority_objects", "close_id_gaps", "rename_objects", "snap_to_masks"]
 
 
 def compose_masks(
@@ -230,6 +230,35 @@ def majority_objects(masks: Sequence[np.ndarray], labels: Sequence[np.ndarray], 
     return out
 
 
+def close_id_gaps(representative: np.ndarray, freed: np.ndarray) -> np.ndarray:
+    """Consecutive ids after some objects were joined into others or emptied.
+
+    Parameters
+    ----------
+    representative : int ``[T + 1]``
+        The old id each old id now belongs to (``representative[0] == 0``;
+        never a freed id).
+    freed : bool ``[T + 1]``
+        The old ids no longer in use.
+
+    Returns
+    -------
+    int64 ``[T + 1]``
+        The new id of every old id: the ids above a freed one move down.
+
+    Notes
+    -----
+    O(T).
+
+    Examples
+    --------
+    >>> close_id_gaps(np.array([0, 1, 1, 3]), np.array([False, False, True, False])).tolist()
+    [0, 1, 1, 2]
+    """
+    rep = np.asarray(representative, np.int64)
+    return rep - np.cumsum(np.asarray(freed, np.int64))[rep]
+
+
 def rename_objects(labels: Sequence[np.ndarray], mapping: np.ndarray | None) -> list[np.ndarray]:
     """Object ids per view renamed by a lookup table; labels <= 0 are kept.
 
@@ -255,15 +284,11 @@ def rename_objects(labels: Sequence[np.ndarray], mapping: np.ndarray | None) -> 
     >>> rename_objects([np.array([[0, 1, 2, 3, -1]], np.int32)], np.array([0, 1, 1, 2]))[0].tolist()
     [[0, 1, 1, 2, -1]]
     """
-    out = []
-    for lab in labels:
-        lab = np.asarray(lab)
-        if mapping is None:
-            out.append(np.array(lab, copy=True))
-            continue
-        top = len(mapping) - 1
-        out.append(np.where(lab > 0, np.asarray(mapping)[np.clip(lab, 0, top).astype(np.int64)], lab).astype(lab.dtype))
-    return out
+    if mapping is None:
+        return [np.array(lab, copy=True) for lab in labels]
+    table = np.asarray(mapping)
+    top = table.size - 1
+    return [np.where(lab > 0, table[np.clip(lab, 0, top).astype(np.int64)], lab).astype(lab.dtype) for lab in map(np.asarray, labels)]
 
 
 def snap_to_masks(
@@ -320,44 +345,39 @@ def snap_to_masks(
         raise ValueError(f"expected masks for the {len(labels)} views (got {len(masks)})")
     out = [np.array(lab, copy=True) for lab in labels]
     top = max(int(max((int(np.max(lab)) for lab in out if lab.size), default=0)), int(num_objects or 0))
-    took = np.zeros((top + 1, top + 1), np.int64)  # pixels moved from one object (row) to another (column)
-    before = np.zeros(top + 1, bool)
-    for lab in out:
-        before[np.clip(lab, 0, top).ravel()] = True
+    cols = top + 1
+    size = np.zeros(cols, np.int64)  # pixels of each object before the snap
+    took = np.zeros((cols, cols), np.int64)  # pixels moved from one object (row) to another (column)
     pixels = changed = 0
     for lab, mk in zip(out, masks):
         mk = np.asarray(mk)
         if mk.shape != lab.shape:
             raise ValueError(f"expected masks of shape {list(lab.shape)} (got {list(mk.shape)})")
-        m = mk.ravel().astype(np.int64)
         ob = np.clip(lab, 0, None).ravel().astype(np.int64)
+        size += np.bincount(ob, minlength=cols)
+        m = mk.ravel().astype(np.int64)
         keep = (m > 0) & (ob > 0)
         if not keep.any() or not np.isfinite(min_share):
             continue
-        cols = top + 1
         hist = np.bincount(m[keep] * cols + ob[keep], minlength=(int(m.max()) + 1) * cols).reshape(-1, cols)
         total = hist.sum(1)
         best = hist.argmax(1)
-        snap = (total > 0) & (hist[np.arange(hist.shape[0]), best] >= min_share * total) & (hist[np.arange(hist.shape[0]), best] < total)
+        most = hist[np.arange(hist.shape[0]), best]
+        snap = (total > 0) & (most >= min_share * total) & (most < total)
         if not snap.any():
             continue
         move = keep & snap[m] & (ob != best[m])
-        flat = lab.reshape(-1)
         np.add.at(took, (ob[move], best[m[move]]), 1)
-        flat[move] = best[m[move]].astype(lab.dtype)
+        lab.reshape(-1)[move] = best[m[move]].astype(lab.dtype)
         pixels += int(move.sum())
         changed += int(snap.sum())
+    gone = (size > 0) & (size - took.sum(1) + took.sum(0) == 0)  # only ids this step emptied; an unused id stays as it was
+    gone[0] = False
     mapping = None
-    if pixels:
-        present = np.zeros(top + 1, bool)
-        for lab in out:
-            present[np.clip(lab, 0, top).ravel()] = True
-        gone = before & ~present
-        gone[0] = False
-        if gone.any():  # only ids this step emptied move; an id that was already unused stays as it was
-            mapping = np.arange(top + 1, dtype=np.int64) - np.cumsum(gone)
-            heir = took.argmax(1)  # where most of each object's moved pixels went (never an emptied id: those hold no pixels now)
-            mapping[gone] = mapping[heir[gone]]
-            out = rename_objects(out, mapping)
+    if gone.any():
+        representative = np.arange(cols)
+        representative[gone] = took[gone].argmax(1)  # where most of its pixels went (never an emptied id: those hold no pixels now)
+        mapping = close_id_gaps(representative, gone)
+        out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
     return out, {"pixels": pixels, "masks": changed, "mapping": mapping, "num_objects": num}

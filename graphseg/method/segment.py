@@ -953,6 +953,7 @@ def finish_segmentation(
     )
     num_objects = int(obj.max()) if obj.size else 0
     split_info = None
+    changed = False  # the split, merge, join or snap changed the objects
     if cfg.split.enabled:
         t_split = time.perf_counter()
         sp = cfg.split
@@ -1032,7 +1033,7 @@ def finish_segmentation(
         out_labels, trim_info = trim_rims(out_labels, [v.rgb for v in views], window=tr.window, rim=tr.rim, blur=tr.blur)
         timings["trim"] = time.perf_counter() - t_trim
     area = None
-    if split_info is not None and (split_info["num_objects"] >= split_info["first_new"] or split_info.get("merges") or split_info.get("joins") or split_info.get("snapped")):  # the split, merge, join or snap changed objects
+    if changed:
         sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
         area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
     for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)

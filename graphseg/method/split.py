@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ..graphs import combine_keys, group_by_key
-from .masks import rename_objects
+from .masks import close_id_gaps, rename_objects
 
 __all__ = ["convexity_graph", "merge_objects", "normalized_cut", "split_objects", "voxelize"]
 
@@ -617,7 +617,7 @@ def merge_objects(
             pairs = {(min(x, y), max(x, y)) for x, y in renamed if x != y}
             cost = {k: v for k, v in cost.items() if a_ not in k and b_ not in k}
     if merges:
-        freed = np.zeros(top + 1, np.int64)
-        freed[[m["ids"][1] for m in merges]] = 1
-        mapping = mapping - np.cumsum(freed)[mapping]
+        freed = np.zeros(top + 1, bool)
+        freed[[m["ids"][1] for m in merges]] = True
+        mapping = close_id_gaps(mapping, freed)
     return rename_objects(labels, mapping if merges else None), {"merges": merges, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}

@@ -145,3 +145,15 @@ def test_snap_to_masks_edge_cases():
         snap_to_masks(lab, [], 0.9)
     with pytest.raises(ValueError, match=r"expected masks of shape \[1, 2\] \(got \[2, 2\]\)"):
         snap_to_masks(lab, [np.ones((2, 2), np.int32)], 0.9)
+
+
+def test_close_id_gaps_by_hand_and_edge_cases():
+    from graphseg.method.masks import close_id_gaps
+
+    rep = np.array([0, 1, 1, 3, 3, 5])  # 2 joined 1, 4 joined 3
+    freed = np.array([False, False, True, False, True, False])
+    out = close_id_gaps(rep, freed)
+    assert out.tolist() == [0, 1, 1, 2, 2, 3] and out.dtype == np.int64
+    assert rep.tolist() == [0, 1, 1, 3, 3, 5]  # the input is not modified
+    assert close_id_gaps(np.arange(4), np.zeros(4, bool)).tolist() == [0, 1, 2, 3]  # nothing freed
+    assert close_id_gaps(np.array([0]), np.array([False])).tolist() == [0]
