@@ -19,7 +19,7 @@ Besides the presets, ``--presets`` takes the variants of :data:`VARIANTS`
 and ``"robust without split"``, the presets without their 3D split and merge of
 objects, whose time is the ``split`` column; ``"rgbd without merge"``, the
 split alone; ``"rgbd, one split grid"``, the split without its fine 5 mm pass;
-``"rgbd + mask snap 0.85"``, masks given back whole after the split).
+``"rgbd, no mask snap"``, rgbd without giving the pixels the voxel border cut off a mask back).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
@@ -50,7 +50,7 @@ VARIANTS = {
     "rgbd without split": lambda: Config.preset("rgbd", split={"enabled": False}),
     "rgbd without merge": lambda: Config.preset("rgbd", split={"enabled": True, "merge_ncut": None}),
     "rgbd, one split grid": lambda: Config.preset("rgbd", split={"fine_voxel_size": None}),
-    "rgbd + mask snap 0.85": lambda: Config.preset("rgbd", split={"snap_share": 0.85}),
+    "rgbd, no mask snap": lambda: Config.preset("rgbd", split={"snap_share": None}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
 

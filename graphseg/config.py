@@ -298,14 +298,16 @@ class SplitConfig(_Model):
     step across it, is at least ``join_shared`` of the smaller one's outline
     are joined (:func:`graphseg.method.join.join_objects`): pieces too small
     or too interleaved (the stripes of one box) for the 3D cut. Off for
-    measured depth, on for estimated points (``lifted.split``). Then every
-    mask with at least ``snap_share`` of its labelled pixels in one object is
-    given wholly to it (:func:`graphseg.method.masks.snap_to_masks`): the
-    voxel border cut a few pixels off a mask that lies in one object. It is
-    off by default and in every preset: at 0.85 it raised masks cut along
-    the ground truth on YCB-Video 0002 by 0.03-0.05, but lowered the
-    ``superpixel`` rows of ``bench_quality.py`` and ``robust`` on 0002 at 10
-    views. Chosen
+    measured depth, on for estimated points (``lifted.split``). Then, in every
+    mask with at least ``snap_share`` of its labelled pixels in one object,
+    the other pixels go to that object where the other views' masks agree at
+    the same voxel (:func:`graphseg.method.masks.snap_to_masks` with the
+    points, on the ``voxel_size`` grid): the voxel border cut a few pixels off
+    a mask that lies in one object. Off by default, 0.85 in the ``rgbd``
+    preset: it raised masks cut along the ground truth on YCB-Video 0002 by
+    0.02-0.04. Without the other views' agreement it lowered the
+    ``superpixel`` rows of ``bench_quality.py``; with it, ``robust`` on 0002
+    at 10 views still falls, so ``robust`` keeps it off. Chosen
     on the tune halves of ``bench_ycb_views.py`` and ``bench_rgb_only.py``
     (``docs/results.md``).
     """
@@ -335,7 +337,7 @@ class SplitConfig(_Model):
         None,
         gt=0.5,
         le=1,
-        description="then a mask with at least this share of its labelled pixels in one object is given wholly to it (None: the per-pixel labels stay)",
+        description="then a mask with at least this share of its labelled pixels in one object gets its other pixels back where the other views' masks agree (None: the per-pixel labels stay)",
     )
 
 

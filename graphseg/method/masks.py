@@ -292,18 +292,37 @@ def rename_objects(labels: Sequence[np.ndarray], mapping: np.ndarray | None) -> 
 
 
 def snap_to_masks(
-    labels: Sequence[np.ndarray], masks: Sequence[np.ndarray], min_share: float, *, num_objects: int | None = None
+    labels: Sequence[np.ndarray],
+    masks: Sequence[np.ndarray],
+    min_share: float,
+    *,
+    points: Sequence[np.ndarray] | None = None,
+    voxel_size: float = 0.006,
+    num_objects: int | None = None,
 ) -> tuple[list[np.ndarray], dict[str, Any]]:
-    """Give every mask that one object mostly holds wholly to that object.
+    """Give the pixels a mask's main object lacks to that object, where the other views agree.
 
     After a per-pixel step (the 3D split) the border between two objects
     follows voxels, so it can cut a few pixels off a mask that lies almost
-    wholly in one object. A mask with at least ``min_share`` of its labelled
-    pixels in one object has all its labelled pixels relabelled to that
-    object; a mask split more evenly (one that straddles two touching
-    objects) keeps the per-pixel labels. An object left without pixels frees
-    its id, and the ids above it move down; its old id maps to the object
-    that took most of its pixels (so a mask still pointing at it follows them).
+    wholly in one object. In a mask with at least ``min_share`` of its
+    labelled pixels in one object (its main object), the pixels of other
+    objects are relabelled to the main object; a mask split more evenly (one
+    that straddles two touching objects) keeps its per-pixel labels.
+
+    With ``points``, a pixel moves only where the other views agree: every
+    labelled pixel of every view votes for the main object of its mask, at its
+    point's voxel, and a pixel moves when, in its voxel, the other views'
+    votes for its mask's main object outnumber their votes for its own
+    object. A mask that straddles two objects in this view (a superpixel over
+    an object border, 85 / 15) keeps the cut when the other views' masks
+    put the minority part in its own object; a mask that the voxel border
+    cut (the other views' masks of the same surface vote for its main
+    object) is given back. A pixel without a point, or whose voxel no other
+    view sees, keeps its label.
+
+    An object left without pixels frees its id, and the ids above it move
+    down; its old id maps to the object that took most of its pixels (so a
+    mask still pointing at it follows them).
 
     Parameters
     ----------
@@ -314,6 +333,11 @@ def snap_to_masks(
     min_share : float
         Share of a mask's labelled pixels its main object must hold (in
         ``(0.5, 1]``; ``inf``: never snap).
+    points : list of float ``[H, W, 3]``, optional, keyword-only
+        World points per view (NaN = none): the other views' votes decide
+        (None: every pixel of such a mask moves).
+    voxel_size : float, keyword-only
+        Edge of the voxels the votes are counted in (same unit as the points).
     num_objects : int, optional, keyword-only
         The largest object id in use (default: the largest in ``labels``).
 
@@ -322,14 +346,16 @@ def snap_to_masks(
     labels : list of int ``[H, W]``
         New arrays of the input dtypes (the inputs are not modified).
     info : dict
-        ``pixels``: pixels relabelled over all views; ``masks``: masks that
-        changed; ``mapping``: int64 ``[T + 1]``, the new id of every old id,
-        a freed one's being the new id of the object that took most of its
-        pixels (None when no id was freed); ``num_objects``: the largest id now.
+        ``pixels``: pixels relabelled over all views; ``masks``: masks with a
+        relabelled pixel; ``mapping``: int64 ``[T + 1]``, the new id of every
+        old id, a freed one's being the new id of the object that took most of
+        its pixels (None when no id was freed); ``num_objects``: the largest id now.
 
     Notes
     -----
-    O(total pixels): one joint histogram per view.
+    O(total pixels): one joint histogram per view; with ``points``, one voxel
+    key per labelled pixel and a binary search among the voxels of the
+    pixels that could move.
 
     Examples
     --------
@@ -338,17 +364,38 @@ def snap_to_masks(
     >>> out, info = snap_to_masks(lab, m, 0.8)
     >>> out[0].tolist(), info["pixels"], info["mapping"]
     ([[3, 3, 3, 3, 3, 1, 1, 3, 3, 0]], 1, None)
+
+    Two views of one row of points. View 0's mask holds 4 of 5 pixels in
+    object 1; view 1's mask puts point 4 in object 1 too, so it moves (and
+    object 2, left empty, frees its id):
+
+    >>> pts = [np.arange(5.0).repeat(3).reshape(1, 5, 3)] * 2
+    >>> lab = [np.array([[1, 1, 1, 1, 2]]), np.array([[1, 1, 1, 1, 1]])]
+    >>> m = [np.array([[1, 1, 1, 1, 1]]), np.array([[1, 1, 1, 1, 1]])]
+    >>> out, info = snap_to_masks(lab, m, 0.8, points=pts, voxel_size=0.5)
+    >>> out[0].tolist(), info["mapping"].tolist()
+    ([[1, 1, 1, 1, 1]], [0, 1, 1])
+
+    When view 1's masks put point 4 in object 2, view 0's cut stands:
+
+    >>> lab[1], m[1] = np.array([[1, 1, 1, 2, 2]]), np.array([[1, 1, 1, 2, 2]])
+    >>> snap_to_masks(lab, m, 0.8, points=pts, voxel_size=0.5)[0][0].tolist()
+    [[1, 1, 1, 1, 2]]
     """
     if not min_share > 0.5:
         raise ValueError(f"expected min_share > 0.5, so that one object holds the share (got {min_share})")
     if len(masks) != len(labels):
         raise ValueError(f"expected masks for the {len(labels)} views (got {len(masks)})")
+    if points is not None and len(points) != len(labels):
+        raise ValueError(f"expected points for the {len(labels)} views (got {len(points)})")
+    if not voxel_size > 0:
+        raise ValueError(f"expected voxel_size > 0 (got {voxel_size})")
     out = [np.array(lab, copy=True) for lab in labels]
     top = max(int(max((int(np.max(lab)) for lab in out if lab.size), default=0)), int(num_objects or 0))
     cols = top + 1
     size = np.zeros(cols, np.int64)  # pixels of each object before the snap
-    took = np.zeros((cols, cols), np.int64)  # pixels moved from one object (row) to another (column)
-    pixels = changed = 0
+    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per view: pixels that may move, their mask ids, their target objects
+    voters: list[tuple[np.ndarray, np.ndarray]] = []  # per view: labelled pixels, the main object of their mask
     for lab, mk in zip(out, masks):
         mk = np.asarray(mk)
         if mk.shape != lab.shape:
@@ -357,20 +404,35 @@ def snap_to_masks(
         size += np.bincount(ob, minlength=cols)
         m = mk.ravel().astype(np.int64)
         keep = (m > 0) & (ob > 0)
+        none = np.zeros(0, np.int64)
         if not keep.any() or not np.isfinite(min_share):
+            moves.append((none, none, none))
+            voters.append((none, none))
             continue
         hist = np.bincount(m[keep] * cols + ob[keep], minlength=(int(m.max()) + 1) * cols).reshape(-1, cols)
         total = hist.sum(1)
         best = hist.argmax(1)
         most = hist[np.arange(hist.shape[0]), best]
         snap = (total > 0) & (most >= min_share * total) & (most < total)
-        if not snap.any():
+        idx = np.flatnonzero(keep & snap[m] & (ob != best[m]))
+        moves.append((idx, m[idx], best[m[idx]]))
+        if points is not None:
+            vote = np.flatnonzero(keep)
+            voters.append((vote, best[m[vote]]))
+        else:
+            voters.append((none, none))
+    if points is not None and any(mv[0].size for mv in moves):
+        moves = _agreed_moves(out, moves, voters, points, voxel_size, cols)
+    took = np.zeros((cols, cols), np.int64)  # pixels moved from one object (row) to another (column)
+    pixels = changed = 0
+    for lab, (idx, mask_id, target) in zip(out, moves):
+        if not idx.size:
             continue
-        move = keep & snap[m] & (ob != best[m])
-        np.add.at(took, (ob[move], best[m[move]]), 1)
-        lab.reshape(-1)[move] = best[m[move]].astype(lab.dtype)
-        pixels += int(move.sum())
-        changed += int(snap.sum())
+        flat = lab.reshape(-1)
+        np.add.at(took, (flat[idx].astype(np.int64), target), 1)
+        flat[idx] = target.astype(lab.dtype)
+        pixels += idx.size
+        changed += np.unique(mask_id).size
     gone = (size > 0) & (size - took.sum(1) + took.sum(0) == 0)  # only ids this step emptied; an unused id stays as it was
     gone[0] = False
     mapping = None
@@ -381,3 +443,53 @@ def snap_to_masks(
         out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
     return out, {"pixels": pixels, "masks": changed, "mapping": mapping, "num_objects": num}
+
+
+def _agreed_moves(
+    labels: Sequence[np.ndarray],
+    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    voters: list[tuple[np.ndarray, np.ndarray]],
+    points: Sequence[np.ndarray],
+    voxel_size: float,
+    cols: int,
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The moves of :func:`snap_to_masks` that the other views' votes at the same voxel support."""
+    from ..graphs import combine_keys
+
+    flat = [np.asarray(p, np.float64).reshape(-1, 3) for p in points]
+    cand_cells = [np.floor(flat[v][idx] / voxel_size) for v, (idx, _, _) in enumerate(moves)]
+    vote_cells = [np.floor(flat[v][idx] / voxel_size) for v, (idx, _) in enumerate(voters)]
+    finite = [np.isfinite(c).all(1) for c in cand_cells]
+    everything = np.concatenate([c[f] for c, f in zip(cand_cells, finite)] + [c[np.isfinite(c).all(1)] for c in vote_cells])
+    if not everything.size:
+        return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
+    low, high = everything.min(0), everything.max(0)
+    dims = (high - low + 1).astype(np.int64).tolist()
+
+    def keys(cells: np.ndarray) -> np.ndarray:
+        return combine_keys(list((cells - low).astype(np.int64).T), dims)
+
+    cand_keys = [keys(c[f]) for c, f in zip(cand_cells, finite)]
+    voxels = np.unique(np.concatenate(cand_keys))  # the voxels where a pixel could move
+    if not voxels.size:  # no pixel that could move has a point
+        return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
+    count = voxels.size * cols
+    total = np.zeros(count, np.int64)
+    own = []
+    for cells, (_, vote) in zip(vote_cells, voters):
+        ok = np.isfinite(cells).all(1)
+        k = keys(cells[ok])
+        pos = np.minimum(np.searchsorted(voxels, k), voxels.size - 1)
+        hit = voxels[pos] == k
+        mine = np.bincount(pos[hit] * cols + vote[ok][hit], minlength=count)
+        own.append(mine)
+        total += mine
+    agreed = []
+    for (idx, mask_id, target), f, k, mine, lab in zip(moves, finite, cand_keys, own, labels):
+        idx, mask_id, target = idx[f], mask_id[f], target[f]
+        at = np.searchsorted(voxels, k) * cols
+        other = total - mine
+        current = np.asarray(lab).reshape(-1)[idx].astype(np.int64)
+        go = other[at + target] > other[at + current]
+        agreed.append((idx[go], mask_id[go], target[go]))
+    return agreed

@@ -1006,8 +1006,10 @@ def finish_segmentation(
                 obj = joined["mapping"][obj]
                 changed = True
         split_info["snapped"] = 0
-        if sp.snap_share is not None:  # masks the voxel border cut a few pixels off go back whole to their object
-            out_labels, snapped = snap_to_masks(out_labels, labels, sp.snap_share, num_objects=split_info["num_objects"])
+        if sp.snap_share is not None:  # pixels the voxel border cut off a mask go back to its object where the other views agree
+            out_labels, snapped = snap_to_masks(
+                out_labels, labels, sp.snap_share, points=points, voxel_size=sp.voxel_size, num_objects=split_info["num_objects"]
+            )
             split_info["snapped"] = snapped["pixels"]
             if snapped["pixels"]:
                 if snapped["mapping"] is not None:

@@ -147,6 +147,46 @@ def test_snap_to_masks_edge_cases():
         snap_to_masks(lab, [np.ones((2, 2), np.int32)], 0.9)
 
 
+def test_snap_to_masks_with_points_moves_only_what_the_other_views_agree_on():
+    from graphseg.method.masks import snap_to_masks
+
+    # one row of 10 points seen by two views; voxels of 1 hold one point each
+    pts = [np.stack([np.arange(10.0), np.zeros(10), np.zeros(10)], 1).reshape(1, 10, 3)] * 2
+    # view 0: mask 1 covers points 0-9, 9 of them in object 1 and point 9 in object 2 (a superpixel over the border, or a voxel cut)
+    lab0, m0 = np.array([[1] * 9 + [2]]), np.ones((1, 10), np.int32)
+    # view 1 sees point 9 in a mask of its own, wholly object 2: the cut stands
+    lab1, m1 = np.array([[1] * 9 + [2]]), np.array([[1] * 9 + [2]])
+    out, info = snap_to_masks([lab0, lab1], [m0, m1], 0.85, points=pts, voxel_size=1.0)
+    assert out[0].tolist() == lab0.tolist() and info["pixels"] == 0
+    out, info = snap_to_masks([lab0, lab1], [m0, m1], 0.85)  # without points the share alone decides
+    assert out[0].tolist() == [[1] * 10] and info["pixels"] == 1
+    # view 1's mask holds point 9 with points 0-8 (in object 1): its vote gives the pixel back
+    out, info = snap_to_masks([lab0, np.array([[1] * 10])], [m0, np.ones((1, 10), np.int32)], 0.85, points=pts, voxel_size=1.0)
+    assert out[0].tolist() == [[1] * 10] and info["pixels"] == 1 and info["mapping"].tolist() == [0, 1, 1]
+    # a voxel no other view sees, or a pixel without a point, keeps its label
+    hidden = [pts[0], np.full((1, 10, 3), np.nan)]
+    assert snap_to_masks([lab0, np.array([[1] * 10])], [m0, np.ones((1, 10), np.int32)], 0.85, points=hidden, voxel_size=1.0)[1]["pixels"] == 0
+    nan9 = pts[0].copy()
+    nan9[0, 9] = np.nan
+    out, info = snap_to_masks([lab0, np.array([[1] * 10])], [m0, np.ones((1, 10), np.int32)], 0.85, points=[nan9, pts[1]], voxel_size=1.0)
+    assert info["pixels"] == 0
+    # the votes are counted: two views for object 2 outweigh one for object 1
+    labs = [lab0, np.array([[1] * 10]), lab1, lab1]
+    mks = [m0, np.ones((1, 10), np.int32), m1, m1]
+    assert snap_to_masks(labs, mks, 0.85, points=[pts[0]] * 4, voxel_size=1.0)[1]["pixels"] == 0
+    assert (lab0 == np.array([[1] * 9 + [2]])).all()  # inputs unchanged
+
+
+def test_snap_to_masks_points_are_checked():
+    from graphseg.method.masks import snap_to_masks
+
+    lab, masks = [np.array([[1, 2]])], [np.array([[1, 1]])]
+    with pytest.raises(ValueError, match="points for the 1 views"):
+        snap_to_masks(lab, masks, 0.9, points=[])
+    with pytest.raises(ValueError, match="voxel_size > 0"):
+        snap_to_masks(lab, masks, 0.9, points=[np.zeros((1, 2, 3))], voxel_size=0.0)
+
+
 def test_close_id_gaps_by_hand_and_edge_cases():
     from graphseg.method.masks import close_id_gaps
 

@@ -379,13 +379,15 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
 
     monkeypatch.setattr(seg_mod, "split_objects", ragged)
     gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
-    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd"))
-    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={"snap_share": 0.85}))
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={"snap_share": None}))
+    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd"))  # the other views' masks agree: the pixels go back
     assert off.info["split"]["snapped"] == 0 and res.info["split"]["snapped"] > 0
     assert evaluate(res.labels, gt, pts)["mean"]["iou"] > evaluate(off.labels, gt, pts)["mean"]["iou"]
-    assert res.num_objects == 2 and len(np.unique(res.labels[0][scene.views[0].instances == 1])) == 1
+    box1, box1_off = (r.labels[0][scene.views[0].instances == 1] == 1 for r in (res, off))
+    assert res.num_objects == 2 and box1_off.mean() < 0.95 and box1.mean() > 0.98  # back, but for pixels whose voxel only view 0 sees
     assert sorted(set(res.mask_object.tolist())) == [1, 2]
-    assert Config().split.snap_share is None and Config.preset("rgbd").split.snap_share is None  # off by default (bench_quality's superpixel rows)
+    assert Config().split.snap_share is None and Config.preset("rgbd").split.snap_share == 0.85  # on in rgbd only
+    assert Config.preset("robust").split.snap_share is None  # it lowered robust on YCB-Video 0002 at 10 views
     with pytest.raises(ValueError, match="snap_share"):
         Config.preset("rgbd", split={"snap_share": 0.5})
 
@@ -411,8 +413,10 @@ def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_
         return new, {**info, "num_objects": 3}
 
     monkeypatch.setattr(seg_mod, "split_objects", shuffled)
+    snap = seg_mod.snap_to_masks  # by share alone, so that it empties id 1 even where only one view sees a pixel
+    monkeypatch.setattr(seg_mod, "snap_to_masks", lambda *a, points, **k: snap(*a, **k))
     base = {"merge_ncut": None, "fine_voxel_size": None}
-    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split=base))
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "snap_share": None}))
     assert off.num_objects == 3 and off.mask_object.tolist() == [3, 2] * 3
     res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "snap_share": 0.85}))
     assert res.num_objects == 2 and res.info["split"]["snapped"] > 0
