@@ -423,22 +423,32 @@ def snap_to_masks(
             voters.append((none, none))
     if points is not None and any(mv[0].size for mv in moves):
         moves = _agreed_moves(out, moves, voters, points, voxel_size, cols)
-    took = np.zeros((cols, cols), np.int64)  # pixels moved from one object (row) to another (column)
+    moved_from, moved_to = [], []  # the old and new object of every moved pixel
     pixels = changed = 0
     for lab, (idx, mask_id, target) in zip(out, moves):
         if not idx.size:
             continue
         flat = lab.reshape(-1)
-        np.add.at(took, (flat[idx].astype(np.int64), target), 1)
+        moved_from.append(flat[idx].astype(np.int64))
+        moved_to.append(target)
         flat[idx] = target.astype(lab.dtype)
         pixels += idx.size
         changed += np.unique(mask_id).size
-    gone = (size > 0) & (size - took.sum(1) + took.sum(0) == 0)  # only ids this step emptied; an unused id stays as it was
+    src = np.concatenate(moved_from) if moved_from else np.zeros(0, np.int64)
+    dst = np.concatenate(moved_to) if moved_to else np.zeros(0, np.int64)
+    left = size - np.bincount(src, minlength=cols) + np.bincount(dst, minlength=cols)
+    gone = (size > 0) & (left == 0)  # only ids this step emptied; an unused id stays as it was
     gone[0] = False
     mapping = None
     if gone.any():
+        pair, n = np.unique(src * cols + dst, return_counts=True)  # pixels moved from one object to another
+        a, b = pair // cols, pair % cols
+        first = np.lexsort((b, -n, a))  # per old object: the new one that took most of its pixels (ties: the lower id)
+        a, b = a[first], b[first]
+        head = np.r_[True, a[1:] != a[:-1]]
         representative = np.arange(cols)
-        representative[gone] = took[gone].argmax(1)  # where most of its pixels went (never an emptied id: those hold no pixels now)
+        take = head & gone[a]
+        representative[a[take]] = b[take]  # never an emptied id: those hold no pixels now
         mapping = close_id_gaps(representative, gone)
         out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
@@ -456,40 +466,50 @@ def _agreed_moves(
     """The moves of :func:`snap_to_masks` that the other views' votes at the same voxel support."""
     from ..graphs import combine_keys
 
-    flat = [np.asarray(p, np.float64).reshape(-1, 3) for p in points]
-    cand_cells = [np.floor(flat[v][idx] / voxel_size) for v, (idx, _, _) in enumerate(moves)]
-    vote_cells = [np.floor(flat[v][idx] / voxel_size) for v, (idx, _) in enumerate(voters)]
+    def cells(view: int, idx: np.ndarray) -> np.ndarray:  # voxel coordinates of some pixels of a view (NaN rows: no point)
+        return np.floor(np.asarray(points[view]).reshape(-1, 3)[idx].astype(np.float64) / voxel_size)
+
+    cand_cells = [cells(v, idx) for v, (idx, _, _) in enumerate(moves)]
+    vote_cells = [cells(v, idx) for v, (idx, _) in enumerate(voters)]
     finite = [np.isfinite(c).all(1) for c in cand_cells]
-    everything = np.concatenate([c[f] for c, f in zip(cand_cells, finite)] + [c[np.isfinite(c).all(1)] for c in vote_cells])
+    seen = [np.isfinite(c).all(1) for c in vote_cells]
+    everything = np.concatenate([c[f] for c, f in zip(cand_cells, finite)] + [c[f] for c, f in zip(vote_cells, seen)])
     if not everything.size:
         return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
     low, high = everything.min(0), everything.max(0)
     dims = (high - low + 1).astype(np.int64).tolist()
 
-    def keys(cells: np.ndarray) -> np.ndarray:
-        return combine_keys(list((cells - low).astype(np.int64).T), dims)
+    def keys(c: np.ndarray) -> np.ndarray:
+        return combine_keys(list((c - low).astype(np.int64).T), dims)
 
     cand_keys = [keys(c[f]) for c, f in zip(cand_cells, finite)]
     voxels = np.unique(np.concatenate(cand_keys))  # the voxels where a pixel could move
     if not voxels.size:  # no pixel that could move has a point
         return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
-    count = voxels.size * cols
-    total = np.zeros(count, np.int64)
-    own = []
-    for cells, (_, vote) in zip(vote_cells, voters):
-        ok = np.isfinite(cells).all(1)
-        k = keys(cells[ok])
+    votes = []  # per view: (voxel, object) keys of its votes in those voxels, sorted, and their counts
+    for c, f, (_, vote) in zip(vote_cells, seen, voters):
+        k = keys(c[f])
         pos = np.minimum(np.searchsorted(voxels, k), voxels.size - 1)
         hit = voxels[pos] == k
-        mine = np.bincount(pos[hit] * cols + vote[ok][hit], minlength=count)
-        own.append(mine)
-        total += mine
+        votes.append(np.unique(pos[hit] * cols + vote[f][hit], return_counts=True))
+    every = np.concatenate([k for k, _ in votes])
+    weight = np.concatenate([n for _, n in votes])
+    total_keys, inverse = np.unique(every, return_inverse=True)
+    total = np.bincount(inverse, weights=weight).astype(np.int64)
+
+    def count(query: np.ndarray, table: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        k, n = table
+        if not k.size:
+            return np.zeros(query.size, np.int64)
+        i = np.minimum(np.searchsorted(k, query), k.size - 1)
+        return np.where(k[i] == query, n[i], 0)
+
     agreed = []
-    for (idx, mask_id, target), f, k, mine, lab in zip(moves, finite, cand_keys, own, labels):
+    for (idx, mask_id, target), f, k, own, lab in zip(moves, finite, cand_keys, votes, labels):
         idx, mask_id, target = idx[f], mask_id[f], target[f]
         at = np.searchsorted(voxels, k) * cols
-        other = total - mine
         current = np.asarray(lab).reshape(-1)[idx].astype(np.int64)
-        go = other[at + target] > other[at + current]
+        want, have = at + target, at + current
+        go = count(want, (total_keys, total)) - count(want, own) > count(have, (total_keys, total)) - count(have, own)
         agreed.append((idx[go], mask_id[go], target[go]))
     return agreed

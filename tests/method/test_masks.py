@@ -177,6 +177,16 @@ def test_snap_to_masks_with_points_moves_only_what_the_other_views_agree_on():
     assert (lab0 == np.array([[1] * 9 + [2]])).all()  # inputs unchanged
 
 
+def test_snap_to_masks_memory_grows_with_the_pixels_not_the_square_of_the_ids():
+    from graphseg.method.masks import snap_to_masks
+
+    pts = [np.stack([np.arange(4.0), np.zeros(4), np.zeros(4)], 1).reshape(1, 4, 3)] * 2
+    lab = [np.array([[1, 1, 1, 2]]), np.array([[1, 1, 1, 1]])]
+    m = [np.ones((1, 4), np.int32)] * 2
+    out, info = snap_to_masks(lab, m, 0.7, points=pts, voxel_size=1.0, num_objects=10**6)  # a dense [T, T] table would need 8 TB
+    assert out[0].tolist() == [[1, 1, 1, 1]] and info["num_objects"] == 10**6 - 1 and info["mapping"][2] == 1
+
+
 def test_snap_to_masks_points_are_checked():
     from graphseg.method.masks import snap_to_masks
 
