@@ -353,9 +353,10 @@ def snap_to_masks(
 
     Notes
     -----
-    O(total pixels): one joint histogram per view; with ``points``, one voxel
-    key per labelled pixel and a binary search among the voxels of the
-    pixels that could move.
+    O(P log P) for P labelled pixels: the (mask, object) pairs of each view are
+    counted by sorting, so memory grows with the pixels, not with the ids;
+    with ``points``, one voxel key per labelled pixel and a binary search
+    among the voxels of the pixels that could move.
 
     Examples
     --------
@@ -396,10 +397,12 @@ def snap_to_masks(
     size = np.zeros(cols, np.int64)  # pixels of each object before the snap
     moves: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per view: pixels that may move, their mask ids, their target objects
     voters: list[tuple[np.ndarray, np.ndarray]] = []  # per view: labelled pixels, the main object of their mask
-    for lab, mk in zip(out, masks):
+    for v, (lab, mk) in enumerate(zip(out, masks)):
         mk = np.asarray(mk)
         if mk.shape != lab.shape:
             raise ValueError(f"expected masks of shape {list(lab.shape)} (got {list(mk.shape)})")
+        if points is not None and np.shape(points[v]) != (*lab.shape, 3):
+            raise ValueError(f"expected points of shape {[*lab.shape, 3]} (got {list(np.shape(points[v]))})")
         ob = np.clip(lab, 0, None).ravel().astype(np.int64)
         size += np.bincount(ob, minlength=cols)
         m = mk.ravel().astype(np.int64)
@@ -409,10 +412,14 @@ def snap_to_masks(
             moves.append((none, none, none))
             voters.append((none, none))
             continue
-        hist = np.bincount(m[keep] * cols + ob[keep], minlength=(int(m.max()) + 1) * cols).reshape(-1, cols)
-        total = hist.sum(1)
-        best = hist.argmax(1)
-        most = hist[np.arange(hist.shape[0]), best]
+        pair, n = np.unique(m[keep] * cols + ob[keep], return_counts=True)  # pixels of each (mask, object) pair
+        mask_of, obj_of = pair // cols, pair % cols
+        total = np.bincount(mask_of, weights=n, minlength=int(m.max()) + 1)
+        first = np.lexsort((obj_of, -n, mask_of))  # per mask: its main object (ties: the lower id)
+        head = first[np.r_[True, mask_of[first][1:] != mask_of[first][:-1]]]
+        best = np.zeros(total.size, np.int64)
+        most = np.zeros(total.size, np.int64)
+        best[mask_of[head]], most[mask_of[head]] = obj_of[head], n[head]
         snap = (total > 0) & (most >= min_share * total) & (most < total)
         idx = np.flatnonzero(keep & snap[m] & (ob != best[m]))
         moves.append((idx, m[idx], best[m[idx]]))

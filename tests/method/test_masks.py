@@ -185,6 +185,9 @@ def test_snap_to_masks_memory_grows_with_the_pixels_not_the_square_of_the_ids():
     m = [np.ones((1, 4), np.int32)] * 2
     out, info = snap_to_masks(lab, m, 0.7, points=pts, voxel_size=1.0, num_objects=10**6)  # a dense [T, T] table would need 8 TB
     assert out[0].tolist() == [[1, 1, 1, 1]] and info["num_objects"] == 10**6 - 1 and info["mapping"][2] == 1
+    many = [np.arange(1, 5001).reshape(50, 100)]  # 5,000 masks of one pixel, each wholly its own object
+    out, info = snap_to_masks([many[0] * 0 + 7], many, 0.9, num_objects=10**6)  # a dense [masks, ids] table would need 40 GB
+    assert info["pixels"] == 0 and (out[0] == 7).all()
 
 
 def test_snap_to_masks_points_are_checked():
@@ -195,6 +198,8 @@ def test_snap_to_masks_points_are_checked():
         snap_to_masks(lab, masks, 0.9, points=[])
     with pytest.raises(ValueError, match="voxel_size > 0"):
         snap_to_masks(lab, masks, 0.9, points=[np.zeros((1, 2, 3))], voxel_size=0.0)
+    with pytest.raises(ValueError, match=r"expected points of shape \[1, 2, 3\] \(got \[2, 1, 3\]\)"):
+        snap_to_masks(lab, masks, 0.9, points=[np.zeros((2, 1, 3))])
 
 
 def test_close_id_gaps_by_hand_and_edge_cases():
