@@ -310,8 +310,8 @@ def snap_to_masks(
     that straddles two touching objects) keeps its per-pixel labels.
 
     With ``points``, a pixel moves only where the other views agree: every
-    labelled pixel of every view votes for the main object of its mask, at its
-    point's voxel, and a pixel moves when, in its voxel, the other views'
+    labelled pixel of every view votes for the main object of its mask (the
+    lower id on a tie), at its point's voxel, and a pixel moves when, in its voxel, the other views'
     votes for its mask's main object outnumber their votes for its own
     object. A mask that straddles two objects in this view (a superpixel over
     an object border, 85 / 15) keeps the cut when the other views' masks
@@ -336,8 +336,9 @@ def snap_to_masks(
     points : list of float ``[H, W, 3]``, optional, keyword-only
         World points per view (NaN = none): the other views' votes decide
         (None: every pixel of such a mask moves).
-    voxel_size : float, keyword-only
-        Edge of the voxels the votes are counted in (same unit as the points).
+    voxel_size : float, default 0.006, keyword-only
+        Edge of the voxels the votes are counted in (same unit as the points;
+        a voxel is ``floor(point / voxel_size)``, the grid of the 3D split).
     num_objects : int, optional, keyword-only
         The largest object id in use (default: the largest in ``labels``).
 
@@ -478,24 +479,23 @@ def _agreed_moves(
 
     cand_cells = [cells(v, idx) for v, (idx, _, _) in enumerate(moves)]
     vote_cells = [cells(v, idx) for v, (idx, _) in enumerate(voters)]
-    finite = [np.isfinite(c).all(1) for c in cand_cells]
-    seen = [np.isfinite(c).all(1) for c in vote_cells]
-    everything = np.concatenate([c[f] for c, f in zip(cand_cells, finite)] + [c[f] for c, f in zip(vote_cells, seen)])
+    usable = 2.0**52  # voxel coordinates beyond this do not survive the cast to int64: such a pixel has no point
+    finite = [(np.abs(c) < usable).all(1) for c in cand_cells]  # NaN compares False
+    seen = [(np.abs(c) < usable).all(1) for c in vote_cells]
+    parts = [c[f] for c, f in zip(cand_cells, finite)] + [c[f] for c, f in zip(vote_cells, seen)]
+    everything = np.concatenate(parts).astype(np.int64)
     if not everything.size:
         return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
-    low, high = everything.min(0), everything.max(0)
-    dims = (high - low + 1).astype(np.int64).tolist()
-
-    def keys(c: np.ndarray) -> np.ndarray:
-        return combine_keys(list((c - low).astype(np.int64).T), dims)
-
-    cand_keys = [keys(c[f]) for c, f in zip(cand_cells, finite)]
+    low = everything.min(0)
+    every_key = combine_keys(list((everything - low).T), (everything.max(0) - low + 1).tolist())  # one call: keys agree across views
+    split_at = np.cumsum([len(c) for c in parts])[:-1]
+    all_keys = np.split(every_key, split_at)
+    cand_keys, vote_keys = all_keys[: len(cand_cells)], all_keys[len(cand_cells) :]
     voxels = np.unique(np.concatenate(cand_keys))  # the voxels where a pixel could move
     if not voxels.size:  # no pixel that could move has a point
         return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
     votes = []  # per view: (voxel, object) keys of its votes in those voxels, sorted, and their counts
-    for c, f, (_, vote) in zip(vote_cells, seen, voters):
-        k = keys(c[f])
+    for k, f, (_, vote) in zip(vote_keys, seen, voters):
         pos = np.minimum(np.searchsorted(voxels, k), voxels.size - 1)
         hit = voxels[pos] == k
         votes.append(np.unique(pos[hit] * cols + vote[f][hit], return_counts=True))

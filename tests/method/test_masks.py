@@ -177,6 +177,34 @@ def test_snap_to_masks_with_points_moves_only_what_the_other_views_agree_on():
     assert (lab0 == np.array([[1] * 9 + [2]])).all()  # inputs unchanged
 
 
+def test_snap_to_masks_votes_are_for_the_masks_object_on_the_floor_grid_and_far_points_keep_keys_apart():
+    from graphseg.method.masks import snap_to_masks
+
+    row = np.stack([np.arange(10.0), np.zeros(10), np.zeros(10)], 1).reshape(1, 10, 3)
+    lab0, m0 = np.array([[1] * 9 + [2]]), np.ones((1, 10), np.int32)
+    # view 1 also has point 9 in object 2, but inside a mask whose main object is 1: it votes for 1, so the pixel moves
+    lab1, m1 = np.array([[1] * 9 + [2]]), np.ones((1, 10), np.int32)
+    masks, points = [m0, m1], [row, row.copy()]
+    before = [a.copy() for a in (lab0, lab1, m0, m1, row)]
+    out, info = snap_to_masks([lab0, lab1], masks, 0.85, points=points, voxel_size=1.0)
+    assert out[0].tolist() == [[1] * 10] and out[1].tolist() == [[1] * 10] and info["pixels"] == 2
+    assert all((a == b).all() for a, b in zip((lab0, lab1, m0, m1, row), before))  # no input modified
+    # voxels are floor(point / voxel_size): 0.9 and 1.1 lie in different voxels, 1.1 and 1.9 in one
+    p0 = np.array([[[0.5, 0, 0]] * 9 + [[1.1, 0, 0]]])
+    lab_b, m_b = np.array([[2] * 10]), np.array([[1] * 10])  # view 1: object 2 alone, at 1.9
+    assert snap_to_masks([lab0, lab_b], [m0, m_b], 0.85, points=[p0, np.array([[[1.9, 0, 0]] * 10])], voxel_size=1.0)[1]["pixels"] == 0  # 1.1 and 1.9: one voxel, votes 2
+    assert snap_to_masks([lab0, lab_b], [m0, m_b], 0.85, points=[p0, np.array([[[0.9, 0, 0]] * 10])], voxel_size=1.0)[1]["pixels"] == 0  # no vote in 1.1's voxel
+    lab_c = np.array([[1] * 10])
+    assert snap_to_masks([lab0, lab_c], [m0, m_b], 0.85, points=[p0, np.array([[[1.5, 0, 0]] * 10])], voxel_size=1.0)[1]["pixels"] == 1  # votes 1 there
+    # a far stray point makes the voxel box too large for a mixed-radix key; the votes still land in the right voxels
+    far = row.copy()
+    far[0, 0] = [1e7, 1e7, 1e7]
+    assert snap_to_masks([lab0, np.array([[1] * 9 + [2]])], [m0, np.array([[1] * 9 + [2]])], 0.85, points=[row, far], voxel_size=1.0)[1]["pixels"] == 0
+    huge = row.copy()
+    huge[0, 3] = [1e300, 0, 0]  # beyond int64 once divided: no point
+    assert snap_to_masks([lab0, lab1], masks, 0.85, points=[row, huge], voxel_size=1.0)[1]["pixels"] == 2
+
+
 def test_snap_to_masks_memory_grows_with_the_pixels_not_the_square_of_the_ids():
     from graphseg.method.masks import snap_to_masks
 
