@@ -396,7 +396,7 @@ def snap_to_masks(
     top = max(int(max((int(np.max(lab)) for lab in out if lab.size), default=0)), int(num_objects or 0))
     cols = top + 1
     size = np.zeros(cols, np.int64)  # pixels of each object before the snap
-    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # per view: pixels that may move, their mask ids, their target objects
+    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []  # per view: pixels that may move, their masks, objects and targets
     voters: list[tuple[np.ndarray, np.ndarray]] = []  # per view: labelled pixels, the main object of their mask
     for v, (lab, mk) in enumerate(zip(out, masks)):
         mk = np.asarray(mk)
@@ -410,74 +410,76 @@ def snap_to_masks(
         keep = (m > 0) & (ob > 0)
         none = np.zeros(0, np.int64)
         if not keep.any() or not np.isfinite(min_share):
-            moves.append((none, none, none))
+            moves.append((none, none, none, none))
             voters.append((none, none))
             continue
-        pair, n = np.unique(m[keep] * cols + ob[keep], return_counts=True)  # pixels of each (mask, object) pair
-        mask_of, obj_of = pair // cols, pair % cols
+        mask_of, obj_of, n = _pair_counts(m[keep], ob[keep], cols)
         total = np.bincount(mask_of, weights=n, minlength=int(m.max()) + 1)
-        first = np.lexsort((obj_of, -n, mask_of))  # per mask: its main object (ties: the lower id)
-        head = first[np.r_[True, mask_of[first][1:] != mask_of[first][:-1]]]
+        owner, owned = _largest_per_group(mask_of, obj_of, n)  # each mask's main object (ties: the lower id)
         best = np.zeros(total.size, np.int64)
         most = np.zeros(total.size, np.int64)
-        best[mask_of[head]], most[mask_of[head]] = obj_of[head], n[head]
+        best[owner], most[owner] = obj_of[owned], n[owned]
         snap = (total > 0) & (most >= min_share * total) & (most < total)
         idx = np.flatnonzero(keep & snap[m] & (ob != best[m]))
-        moves.append((idx, m[idx], best[m[idx]]))
+        moves.append((idx, m[idx], ob[idx], best[m[idx]]))
         if points is not None:
             vote = np.flatnonzero(keep)
             voters.append((vote, best[m[vote]]))
         else:
             voters.append((none, none))
     if points is not None and any(mv[0].size for mv in moves):
-        moves = _agreed_moves(out, moves, voters, points, voxel_size, cols)
-    moved_from, moved_to = [], []  # the old and new object of every moved pixel
+        moves = _agreed_moves(moves, voters, points, voxel_size, cols)
     pixels = changed = 0
-    for lab, (idx, mask_id, target) in zip(out, moves):
-        if not idx.size:
-            continue
-        flat = lab.reshape(-1)
-        moved_from.append(flat[idx].astype(np.int64))
-        moved_to.append(target)
-        flat[idx] = target.astype(lab.dtype)
+    for lab, (idx, mask_id, _, target) in zip(out, moves):
+        lab.reshape(-1)[idx] = target.astype(lab.dtype)
         pixels += idx.size
         changed += np.unique(mask_id).size
-    src = np.concatenate(moved_from) if moved_from else np.zeros(0, np.int64)
-    dst = np.concatenate(moved_to) if moved_to else np.zeros(0, np.int64)
+    src = np.concatenate([mv[2] for mv in moves]) if moves else np.zeros(0, np.int64)  # the old and new object of every moved pixel
+    dst = np.concatenate([mv[3] for mv in moves]) if moves else np.zeros(0, np.int64)
     left = size - np.bincount(src, minlength=cols) + np.bincount(dst, minlength=cols)
     gone = (size > 0) & (left == 0)  # only ids this step emptied; an unused id stays as it was
     gone[0] = False
     mapping = None
     if gone.any():
-        pair, n = np.unique(src * cols + dst, return_counts=True)  # pixels moved from one object to another
-        a, b = pair // cols, pair % cols
-        first = np.lexsort((b, -n, a))  # per old object: the new one that took most of its pixels (ties: the lower id)
-        a, b = a[first], b[first]
-        head = np.r_[True, a[1:] != a[:-1]]
+        old_of, new_of, n = _pair_counts(src, dst, cols)
+        emptied, took = _largest_per_group(old_of, new_of, n)  # per old object: the new one that took most of its pixels (ties: the lower id)
         representative = np.arange(cols)
-        take = head & gone[a]
-        representative[a[take]] = b[take]  # never an emptied id: those hold no pixels now
+        take = gone[emptied]
+        representative[emptied[take]] = new_of[took[take]]  # never an emptied id: those hold no pixels now
         mapping = close_id_gaps(representative, gone)
         out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
     return out, {"pixels": pixels, "masks": changed, "mapping": mapping, "num_objects": num}
 
 
+def _pair_counts(a: np.ndarray, b: np.ndarray, cols: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct pairs ``(a, b)`` (``b < cols``), sorted, and how often each occurs."""
+    pair, n = np.unique(np.asarray(a, np.int64) * cols + b, return_counts=True)
+    return pair // cols, pair % cols, n
+
+
+def _largest_per_group(group: np.ndarray, item: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each group and the index of its row of largest ``count`` (ties: the lower ``item``)."""
+    order = np.lexsort((item, -count, group))
+    head = order[np.r_[True, group[order][1:] != group[order][:-1]]] if order.size else order
+    return group[head], head
+
+
 def _agreed_moves(
-    labels: Sequence[np.ndarray],
-    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    moves: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]],
     voters: list[tuple[np.ndarray, np.ndarray]],
     points: Sequence[np.ndarray],
     voxel_size: float,
     cols: int,
-) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
     """The moves of :func:`snap_to_masks` that the other views' votes at the same voxel support."""
     from ..graphs import combine_keys
 
     def cells(view: int, idx: np.ndarray) -> np.ndarray:  # voxel coordinates of some pixels of a view (NaN rows: no point)
         return np.floor(np.asarray(points[view]).reshape(-1, 3)[idx].astype(np.float64) / voxel_size)
 
-    cand_cells = [cells(v, idx) for v, (idx, _, _) in enumerate(moves)]
+    empty = [(i[:0], m[:0], c[:0], t[:0]) for i, m, c, t in moves]  # no move agreed
+    cand_cells = [cells(v, mv[0]) for v, mv in enumerate(moves)]
     vote_cells = [cells(v, idx) for v, (idx, _) in enumerate(voters)]
     usable = 2.0**52  # voxel coordinates beyond this do not survive the cast to int64: such a pixel has no point
     finite = [(np.abs(c) < usable).all(1) for c in cand_cells]  # NaN compares False
@@ -485,7 +487,7 @@ def _agreed_moves(
     parts = [c[f] for c, f in zip(cand_cells, finite)] + [c[f] for c, f in zip(vote_cells, seen)]
     everything = np.concatenate(parts).astype(np.int64)
     if not everything.size:
-        return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
+        return empty
     low = everything.min(0)
     every_key = combine_keys(list((everything - low).T), (everything.max(0) - low + 1).tolist())  # one call: keys agree across views
     split_at = np.cumsum([len(c) for c in parts])[:-1]
@@ -493,7 +495,7 @@ def _agreed_moves(
     cand_keys, vote_keys = all_keys[: len(cand_cells)], all_keys[len(cand_cells) :]
     voxels = np.unique(np.concatenate(cand_keys))  # the voxels where a pixel could move
     if not voxels.size:  # no pixel that could move has a point
-        return [(i[:0], m[:0], t[:0]) for i, m, t in moves]
+        return empty
     votes = []  # per view: (voxel, object) keys of its votes in those voxels, sorted, and their counts
     for k, f, (_, vote) in zip(vote_keys, seen, voters):
         pos = np.minimum(np.searchsorted(voxels, k), voxels.size - 1)
@@ -512,11 +514,10 @@ def _agreed_moves(
         return np.where(k[i] == query, n[i], 0)
 
     agreed = []
-    for (idx, mask_id, target), f, k, own, lab in zip(moves, finite, cand_keys, votes, labels):
-        idx, mask_id, target = idx[f], mask_id[f], target[f]
+    for mv, f, k, own in zip(moves, finite, cand_keys, votes):
+        idx, mask_id, current, target = (a[f] for a in mv)
         at = np.searchsorted(voxels, k) * cols
-        current = np.asarray(lab).reshape(-1)[idx].astype(np.int64)
         want, have = at + target, at + current
         go = count(want, (total_keys, total)) - count(want, own) > count(have, (total_keys, total)) - count(have, own)
-        agreed.append((idx[go], mask_id[go], target[go]))
+        agreed.append((idx[go], mask_id[go], current[go], target[go]))
     return agreed
