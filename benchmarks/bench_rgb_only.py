@@ -32,7 +32,11 @@ Measures (per scene)
     as a fraction of the median camera-to-scene distance) after the best
     similarity between estimated and true camera centres (ill-conditioned for 3-4
     views on a narrow arc, whose centres are nearly collinear), and the relative
-    rotation error (median over view pairs; needs no alignment);
+    rotation error (median over view pairs; needs no alignment); ``focal``: the
+    estimated focal length over the true one (median over the registered views;
+    the photos come without intrinsics) and ``sfm_pts``: the points structure
+    from motion triangulated (``focal_err`` in the summary: mean of
+    ``|focal - 1|``);
     depth error (median and 90th percentile of the relative error of the lifted
     depth, scaled by that similarity); lifted fraction (pixels with a lifted point
     / pixels with true depth) and ``dense`` (the part from stereo alone); IoU, F1,
@@ -228,6 +232,12 @@ def one(task: dict) -> dict:
         out["rot_err_deg"], out["centre_err_rel"] = rot, cen / float(dist)
     else:
         s = None
+    # the estimated focal length against the true one (the photos come without intrinsics), and
+    # how many points structure from motion triangulated: a weakly textured scene with few points
+    # is where the shared focal length goes wrong (docs/results.md, round 18)
+    fx = [lifted.views[at[scene.views[i].name]].K[0, 0] / scene.views[i].K[0, 0] for i in reg if lifted.views[at[scene.views[i].name]].K is not None and scene.views[i].K is not None]
+    out["focal_ratio"] = float(np.median(fx)) if fx else None
+    out["sfm_points"] = sfm.get("points")
     if len(reg) >= 2:
         out["rel_rot_err_deg"] = _relative_rotation_error([lifted.views[at[scene.views[i].name]].cam_to_world for i in reg], [scene.views[i].cam_to_world for i in reg])
     errs, lifted_frac, dense = [], [], []
@@ -338,6 +348,8 @@ def scene_row(r: dict) -> dict:
         "reg": f"{a.get('registered', 0)}/{r.get('views')}",
         "rot_deg": a.get("rot_err_deg"),
         "rel_rot_deg": a.get("rel_rot_err_deg"),
+        "focal": a.get("focal_ratio"),
+        "sfm_pts": a.get("sfm_points"),
         "depth_err": a.get("depth_err_med"),
         "lifted": a.get("lifted_fraction"),
         "iou": iou_a,
@@ -428,6 +440,7 @@ def summary_row(label: str, half: str, rs: list[dict]) -> dict:
         "registered": _mean([r["rgb"].get("registered", 0) / r["views"] for r in rs]),
         "rot_deg": _mean([_f(r, "rgb", "rot_err_deg") for r in ok]),
         "rel_rot_deg": _mean([_f(r, "rgb", "rel_rot_err_deg") for r in ok]),
+        "focal_err": _mean([None if r["rgb"].get("focal_ratio") is None else abs(r["rgb"]["focal_ratio"] - 1.0) for r in ok]),
         "depth_err": _mean([_f(r, "rgb", "depth_err_med") for r in ok]),
         "lifted": _mean([_f(r, "rgb", "lifted_fraction") or 0.0 for r in rs]),
         "iou": iou_a,
@@ -484,8 +497,8 @@ def checks(rows: list[dict]) -> list[dict]:
     return out
 
 
-SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
-SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
+SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "focal", "sfm_pts", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
+SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "focal_err", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
 CHECK_COLS = ["half", "check", "n", "value", "pass"]
 LOSS_COLS = ["scene", "half", "no_point", "background", "no_mask", "unlabelled", "labelled", "masks_maj", "obj_maj", "iou", "masks_maj_d", "obj_maj_d", "iou_d"]
 LOSS_NOTE = (

@@ -291,6 +291,13 @@ class SplitConfig(_Model):
     same surface area) resolves the narrow seam where two objects touch; there a
     cut stands only where the views' masks own its parts (``fine_own_fraction``,
     ``own_cover``), so the finer grid never cuts a surface the masks see as one.
+    ``settle_band`` (0 = off, in every preset) then draws each cut's border
+    again: the voxels of two touching parts within that many links of their
+    border are divided by a minimum cut of the link weights, so the border
+    follows the weak links across the crease
+    (:func:`graphseg.method.split.settle_parts`). It raised YCB-Video 0002 on
+    the tune half, but moved a box's rim into its taller neighbour on the
+    touching boxes of the tests (``docs/results.md``, round 18).
     Then touching objects whose union no cut below ``merge_ncut``
     separates are joined (:func:`graphseg.method.split.merge_objects`, on the
     ``voxel_size`` grid): the pieces of one object that the masks and matches
@@ -319,6 +326,9 @@ class SplitConfig(_Model):
     concave_weight: float = Field(0.1, ge=0, le=1, description="weight of a link across a concave crease (others weigh 1)")
     concave_angle: float = Field(10.0, ge=0, le=180, description="degrees; links between normals closer than this are never concave")
     concave_margin: float = Field(0.05, ge=0, description="a link is concave when (n_a - n_b) . unit(x_a - x_b) < -concave_margin")
+    settle_band: int = Field(
+        0, ge=0, description="after the cuts, the voxels within this many links of the border between two parts are divided again by a minimum cut of the link weights (0: off)"
+    )
     own_fraction: float | None = Field(None, gt=0, le=1, description="a mask belongs to a part when this share of its pixels lies in it (None: every cut stands)")
     own_cover: float = Field(0.5, ge=0, le=1, description="a part stands only if masks that belong to it cover this share of its pixels")
     fine_voxel_size: float | None = Field(

@@ -893,7 +893,9 @@ def finish_segmentation(
         added, and ``timings`` (a copy) gets ``split`` (split and merge, when
         enabled), ``refine`` and ``trim`` (when enabled), ``outputs`` and ``total``. ``split`` (None
         when disabled) holds :func:`~graphseg.method.split.split_objects`'
-        ``objects`` and ``first_new`` (ids before any merge), the grid of the
+        ``objects`` and ``first_new`` (ids before any merge), ``settled`` (voxels
+        whose part :func:`~graphseg.method.split.settle_parts` changed, both passes;
+        ``split.settle_band``), the grid of the
         finer pass, ``fine_voxel_size`` (None: one pass), and its ``fine_objects``
         and ``fine_first_new``, then the merge's ``merges``
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
@@ -968,6 +970,7 @@ def finish_segmentation(
             own_fraction=sp.own_fraction or 0.0,
             own_cover=sp.own_cover,
             num_objects=num_objects,
+            settle_band=sp.settle_band,
             rng=cfg.seed,
         )
         fine_size = sp.fine_voxel_size if sp.fine_voxel_size is not None and sp.fine_voxel_size < sp.voxel_size else None
@@ -983,9 +986,11 @@ def finish_segmentation(
                 own_fraction=sp.fine_own_fraction,
                 own_cover=sp.own_cover,
                 num_objects=split_info["num_objects"],
+                settle_band=sp.settle_band,
                 rng=cfg.seed,
             )
             split_info["fine_objects"], split_info["fine_first_new"], split_info["num_objects"] = fine["objects"], fine["first_new"], fine["num_objects"]
+            split_info["settled"] += fine["settled"]
         changed = split_info["num_objects"] > num_objects
         split_info["merges"], split_info["merge_mapping"] = [], None
         if sp.merge_ncut is not None:

@@ -9,6 +9,7 @@ from graphseg.method.split import (
     convexity_graph,
     merge_objects,
     normalized_cut,
+    settle_parts,
     split_objects,
     voxelize,
 )
@@ -106,7 +107,7 @@ def test_split_objects_keeps_one_body_and_skips_views_without_a_camera():
     two = np.r_[dome(0.0), dome(0.1)]
     lab = np.ones((1, len(two)), np.int32)
     out, info = split_objects([lab], [two[None]], [(None, None)], rng=0)  # no camera: nothing to orient normals by
-    assert out[0].tolist() == lab.tolist() and info == {"objects": [], "num_objects": 1, "first_new": 2}
+    assert out[0].tolist() == lab.tolist() and info == {"objects": [], "num_objects": 1, "first_new": 2, "settled": 0}
     nan = np.full((1, 4, 3), np.nan)
     out, info = split_objects([np.ones((1, 4), np.int32)], [nan], [(None, EYE)])  # no points
     assert out[0].tolist() == [[1, 1, 1, 1]] and info["objects"] == []
@@ -424,3 +425,141 @@ def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_
     assert res.graphs[-1].node_attr["object"].tolist() == [2, 1]
     for v, lab in zip(scene.views, res.labels):
         assert np.unique(lab[v.instances == 1]).tolist() == [2] and np.unique(lab[v.instances == 2]).tolist() == [1]
+
+
+def _chain(weights):
+    """A path graph 0 - 1 - ... - n with the given link weights, as a symmetric csr matrix."""
+    w = np.asarray(weights, float)
+    a, b = np.arange(w.size), np.arange(1, w.size + 1)
+    return csr_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(w.size + 1, w.size + 1))
+
+
+def test_settle_parts_redraws_the_border_on_the_weak_link_by_hand():
+    W = _chain([1, 1, 1, 1, 1, 0.1, 1, 1, 1, 1])  # the link 5-6 is a crease
+    left, right = np.arange(4), np.arange(4, 11)
+    # band 3: voxels 1-6 are drawn again between the anchors 0 and 7; the cheapest cut is the weak link
+    parts, moved = settle_parts(W, [left, right], band=3)
+    assert [p.tolist() for p in parts] == [[0, 1, 2, 3, 4, 5], [6, 7, 8, 9, 10]] and moved == 2
+    assert [p.dtype for p in parts] == [np.int64, np.int64]
+    assert left.tolist() == [0, 1, 2, 3] and right.tolist() == list(range(4, 11))  # inputs untouched
+    # band 1: only voxels 3 and 4 are drawn, between 2 and 5; every cut there costs one full link
+    # (a tie), so both keep their parts
+    parts1, moved1 = settle_parts(W, [left, right], band=1)
+    assert [p.tolist() for p in parts1] == [[0, 1, 2, 3], [4, 5, 6, 7, 8, 9, 10]] and moved1 == 0
+    # already on the weak link: nothing moves
+    parts2, moved2 = settle_parts(W, parts, band=3)
+    assert [p.tolist() for p in parts2] == [p.tolist() for p in parts] and moved2 == 0
+
+
+def test_settle_parts_on_a_floor_and_wall_puts_the_border_on_the_crease():
+    g = np.arange(-0.06, 0.0001, 0.004)
+    ys = np.arange(0.0, 0.05, 0.004)
+    floor = np.array([[x, y, 0.0] for x in g for y in ys])
+    wall = np.array([[0.0, y, z] for z in np.arange(0.004, 0.061, 0.004) for y in ys])
+    pts = np.r_[floor, wall]
+    eyes = np.tile([-0.3, 0.02, 0.3], (len(pts), 1))  # a camera that sees the floor and the wall's front face
+    W = convexity_graph(pts, eyes, radius=0.009)
+    wrong = pts[:, 0] > -0.015  # the cut 1.5 cm into the floor: four columns of floor samples with the wall
+    parts, moved = settle_parts(W, [np.flatnonzero(~wrong), np.flatnonzero(wrong)], band=4)
+    floor_part = np.isin(np.arange(len(pts)), parts[0])
+    on_wall = ~floor_part[: len(floor)]
+    assert moved > len(ys) and on_wall.sum() == 4 * len(ys) - moved  # the column at x = -1.2 cm and more come back
+    # the border now runs where the links turn weak: the normals, fitted over 20 samples, blend the
+    # floor and the wall near the crease, so samples within 1 cm of it may stay with the wall
+    assert not on_wall[floor[:, 0] < -0.01].any()
+    assert not floor_part[len(floor) :].any()  # the wall stays apart
+
+
+def test_settle_parts_edge_cases():
+    W = _chain([1, 1, 1])
+    parts = [np.array([0, 1]), np.array([2, 3])]
+    out, moved = settle_parts(W, parts, band=0)
+    assert [p.tolist() for p in out] == [[0, 1], [2, 3]] and moved == 0
+    out, moved = settle_parts(W, [np.arange(4)], band=2)  # one part: nothing to draw
+    assert [p.tolist() for p in out] == [[0, 1, 2, 3]] and moved == 0
+    out, moved = settle_parts(W, parts, band=5)  # every voxel in the band: no anchor, nothing moves
+    assert [p.tolist() for p in out] == [[0, 1], [2, 3]] and moved == 0
+    # three parts in a row: each pair is drawn again; the middle part between two weak links keeps its voxel
+    W3 = _chain([1, 1, 0.1, 0.1, 1, 1])
+    out, moved = settle_parts(W3, [np.array([0, 1]), np.array([2, 3, 4]), np.array([5, 6])], band=1)
+    assert [p.tolist() for p in out] == [[0, 1, 2], [3], [4, 5, 6]] and moved == 2
+    with pytest.raises(ValueError, match="band >= 0"):
+        settle_parts(W, parts, band=-1)
+    with pytest.raises(ValueError, match=r"cover all 4 voxels \(got 1 without a part\)"):
+        settle_parts(W, [np.array([0, 1]), np.array([2])])
+
+
+def test_settle_parts_property_a_partition_that_moves_only_near_a_border():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+    from scipy.sparse.csgraph import shortest_path
+
+    @settings(max_examples=60, deadline=None)
+    @given(st.integers(2, 25), st.integers(0, 10_000), st.integers(1, 3))
+    def check(m, seed, band):
+        gen = np.random.default_rng(seed)
+        a, b = gen.integers(0, m, 3 * m), gen.integers(0, m, 3 * m)
+        keep = a != b
+        a, b = a[keep], b[keep]
+        w = gen.choice([0.1, 1.0], a.size)
+        W = csr_matrix((np.r_[w, w], (np.r_[a, b], np.r_[b, a])), shape=(m, m))
+        label = gen.integers(0, 3, m)
+        parts = [np.flatnonzero(label == k) for k in range(3)]
+        before = [p.copy() for p in parts]
+        out, moved = settle_parts(W, parts, band=band)
+        assert len(out) == len(parts) and np.sort(np.concatenate(out)).tolist() == list(range(m))  # a partition
+        assert all(np.array_equal(p, q) for p, q in zip(parts, before))  # inputs untouched
+        new = np.empty(m, np.int64)
+        for k, p in enumerate(out):
+            new[p] = k
+        changed = np.flatnonzero(new != label)
+        assert moved == changed.size
+        coo = W.tocoo()
+        border = np.unique(coo.row[label[coo.row] != label[coo.col]])
+        if changed.size:  # only voxels within band - 1 links of a border voxel move (pairs drawn one after another can chain)
+            hops = shortest_path(W, unweighted=True, indices=border).min(0)
+            assert (hops[changed] <= (band - 1) * 3 + 2).all()
+        # no voxel changes to a part it had no link path to within the band
+        assert set(np.unique(new).tolist()) <= set(np.unique(label).tolist())
+
+    check()
+
+
+def test_split_objects_settle_band_is_checked_and_reported():
+    two = np.r_[dome(0.0), dome(0.1)]
+    lab = np.ones((1, len(two)), np.int32)
+    out0, info0 = split_objects([lab], [two[None]], [(None, EYE)], rng=0)
+    out, info = split_objects([lab], [two[None]], [(None, EYE)], settle_band=2, rng=0)
+    assert info0["settled"] == 0 and isinstance(info["settled"], int)
+    n = len(dome(0.0))
+    assert np.mean(out[0][0, :n] == 1) > 0.97 and np.mean(out[0][0, n:] == 2) > 0.97
+    assert lab.max() == 1  # input untouched
+    with pytest.raises(ValueError, match="settle_band >= 0"):
+        split_objects([lab], [two[None]], [(None, EYE)], settle_band=-1)
+
+
+def test_segment_draws_the_split_border_again_only_when_asked():
+    # off in every preset: on the touching boxes below the minimum cut moves box 2's rim to box 1
+    # (docs/results.md, round 18)
+    assert all(Config.preset(p).split.settle_band == 0 for p in ("rgbd", "robust", "multicut", "paper"))
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    gt = [np.asarray(v.instances) for v in scene.views]
+    pts = [np.asarray(v.points) for v in scene.views]
+    masks = [[g > 0] for g in gt]  # one mask over both boxes: only the split can part them
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd"))
+    on = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={"settle_band": 3}))
+    assert off.info["split"]["settled"] == 0 and on.info["split"]["settled"] > 0
+    assert on.num_objects == 2 and evaluate(on.labels, gt, pts)["mean"]["iou"] > 0.95
+    changed = np.concatenate([(a != b).ravel() for a, b in zip(off.labels, on.labels)])
+    assert 0 < changed.mean() < 0.01  # only pixels at the border between the boxes change
+    # max_ratio: the border 3|4 crosses one full link (1000); the cheapest cut, the link 5-6, costs 600
+    W = _chain([1, 1, 1, 1, 1, 0.6, 1, 1, 1, 1])
+    parts = [np.arange(4), np.arange(4, 11)]
+    moved_any = settle_parts(W, parts, band=3)[1]
+    kept, moved = settle_parts(W, parts, band=3, max_ratio=0.5)  # 600 > 0.5 x 1000: left where it is
+    assert moved_any == 2 and moved == 0 and [p.tolist() for p in kept] == [p.tolist() for p in parts]
+    assert settle_parts(_chain([1, 1, 1, 1, 1, 0.1, 1, 1, 1, 1]), parts, band=3, max_ratio=0.5)[1] == 2  # 100 <= 500
+    with pytest.raises(ValueError, match="max_ratio >= 0"):
+        settle_parts(W, parts, max_ratio=-1.0)
+    with pytest.raises(ValueError, match="settle_band"):
+        Config.preset("rgbd", split={"settle_band": -1})
