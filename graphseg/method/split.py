@@ -252,8 +252,9 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
     crease where the two bodies meet. Here, for every two parts ``A`` and
     ``B`` that share a link, the voxels of both within ``band`` links of that
     border are drawn again by a minimum ``A``-``B`` cut of the link weights,
-    between the voxels of ``A`` and of ``B`` just outside the band (Boykov &
-    Kolmogorov's s-t cut; the maximum flow is SciPy's). The cheapest border
+    between the voxels of ``A`` and of ``B`` just outside the band (an s-t
+    minimum cut; SciPy's maximum flow, Dinic's method). A pair where either
+    part has no voxel outside the band is left as it is. The cheapest border
     follows the weak links across a concave crease where there is one. A
     voxel that some minimum cuts put on one side and others on the other (a
     tie, as on a flat seam where every border costs the same) keeps its part,
@@ -262,7 +263,8 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
     Parameters
     ----------
     W : scipy.sparse matrix ``[M, M]``
-        Symmetric link weights (:func:`convexity_graph`); zero = no link.
+        Link weights (:func:`convexity_graph`); zero = no link. A link given
+        in one direction only counts both ways (``max(W, W.T)``).
     parts : list of int arrays
         A partition of ``0..M-1`` (voxel indices per part).
     band : int
@@ -283,9 +285,12 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
 
     Notes
     -----
-    One maximum flow (Dinic) per pair of touching parts on the band's voxels:
-    about O(V^2 E) in the worst case, a few milliseconds for the few hundred
-    voxels of a band. Pairs are drawn in order of their part indices.
+    One maximum flow (Dinic) per pair of touching parts on the band's voxels
+    (O(V^2 E) in the worst case; a few milliseconds for the few hundred voxels
+    of a band), plus ``band`` sparse products over all of ``W`` per pair. Pairs
+    are drawn in order of their part indices. Weights are scaled to integer
+    capacities (1000 per unit weight); a band whose capacities would not fit
+    in 32 bits raises ``ValueError``.
 
     Examples
     --------
@@ -300,17 +305,27 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
     >>> [p.tolist() for p in parts], moved
     ([[0, 1, 2, 3, 4, 5], [6, 7, 8, 9, 10]], 2)
     """
+    import operator
+
     from scipy.sparse import coo_matrix, csr_matrix
     from scipy.sparse.csgraph import breadth_first_order, maximum_flow
 
+    band = operator.index(band)
     if band < 0 or not max_ratio >= 0:
         raise ValueError(f"expected band >= 0 and max_ratio >= 0 (got {band}, {max_ratio})")
+    W = csr_matrix(W, dtype=np.float64)
+    W.sum_duplicates()
+    W = W.maximum(W.T).tocsr()  # a link given one way counts both ways
     m = W.shape[0]
+    idx_all = [np.asarray(p, np.int64).ravel() for p in parts]
+    sizes = sum(p.size for p in idx_all)
+    if any(p.size and (p.min() < 0 or p.max() >= m) for p in idx_all):
+        raise ValueError(f"expected part indices in 0..{m - 1}")
     pid = np.full(m, -1, np.int64)
-    for k, p in enumerate(parts):
-        pid[np.asarray(p, np.int64)] = k
-    if (pid < 0).any():
-        raise ValueError(f"expected parts that cover all {m} voxels (got {int((pid < 0).sum())} without a part)")
+    for k, p in enumerate(idx_all):
+        pid[p] = k
+    if (pid < 0).any() or sizes != m:
+        raise ValueError(f"expected parts that cover all {m} voxels once (got {int((pid < 0).sum())} without a part, {sizes} indices)")
     coo = W.tocoo()
     link = (coo.data > 0) & (coo.row != coo.col)
     rows, cols = coo.row[link].astype(np.int64), coo.col[link].astype(np.int64)
@@ -337,7 +352,10 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
         idx[nodes] = np.arange(nodes.size)
         s, t = nodes.size, nodes.size + 1
         inner = (idx[rows] >= 0) & (idx[cols] >= 0)
-        anchor = int(cap[inner].sum()) + 1  # more than any cut: the anchors never move
+        present = int(cap[border].sum())  # the border as it is: a cut that leaves the anchors alone
+        anchor = present + 1  # more than the minimum cut: the anchors never move
+        if max(anchor, int(cap[inner].max(initial=0))) > np.iinfo(np.int32).max:
+            raise ValueError(f"expected link weights whose band capacities fit in 32 bits (got {anchor} for one border)")
         G = coo_matrix(
             (
                 np.r_[cap[inner], np.full(ta.size + tb.size, anchor)].astype(np.int32),
@@ -346,8 +364,8 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
             shape=(nodes.size + 2, nodes.size + 2),
         ).tocsr()
         G.sum_duplicates()
-        flow = maximum_flow(G, s, t)
-        if flow.flow_value > max_ratio * float(cap[border].sum()):  # the border is not clearly off the cheapest one
+        flow = maximum_flow(G, s, t, method="dinic")
+        if flow.flow_value > max_ratio * present:  # the border is not clearly dearer than the cheapest one
             continue
         residual = (G - flow.flow).tocsr()  # the flow is antisymmetric: reverse arcs carry its amount
         residual.data = (residual.data > 0).astype(np.int32)

@@ -485,8 +485,29 @@ def test_settle_parts_edge_cases():
     assert [p.tolist() for p in out] == [[0, 1, 2], [3], [4, 5, 6]] and moved == 2
     with pytest.raises(ValueError, match="band >= 0"):
         settle_parts(W, parts, band=-1)
-    with pytest.raises(ValueError, match=r"cover all 4 voxels \(got 1 without a part\)"):
+    with pytest.raises(ValueError, match=r"cover all 4 voxels once \(got 1 without a part, 3 indices\)"):
         settle_parts(W, [np.array([0, 1]), np.array([2])])
+    with pytest.raises(ValueError, match=r"cover all 4 voxels once \(got 0 without a part, 5 indices\)"):
+        settle_parts(W, [np.array([0, 1, 2]), np.array([2, 3])])  # overlapping parts
+    with pytest.raises(ValueError, match=r"part indices in 0..3"):
+        settle_parts(W, [np.array([0, 1]), np.array([2, -1])])
+    with pytest.raises(TypeError):
+        settle_parts(W, parts, band=2.5)  # type: ignore[arg-type]
+
+
+def test_settle_parts_reads_one_way_links_and_refuses_capacities_beyond_32_bits():
+    from scipy.sparse import triu
+
+    W = _chain([1, 1, 1, 1, 1, 0.1, 1, 1, 1, 1])
+    parts = [np.arange(4), np.arange(4, 11)]
+    both = settle_parts(W, parts, band=3)
+    one_way = settle_parts(triu(W).tocsr(), parts, band=3)  # each link stored once
+    assert [p.tolist() for p in one_way[0]] == [p.tolist() for p in both[0]] and one_way[1] == both[1] == 2
+    with pytest.raises(ValueError, match="fit in 32 bits"):
+        settle_parts(_chain([2.2e6] * 5 + [2.2e5] + [2.2e6] * 4), parts, band=3)
+    # the boundary of max_ratio: a cut of exactly 0.6 x the present border is drawn at max_ratio 0.6
+    W6 = _chain([1, 1, 1, 1, 1, 0.6, 1, 1, 1, 1])
+    assert settle_parts(W6, parts, band=3, max_ratio=0.6)[1] == 2 and settle_parts(W6, parts, band=3, max_ratio=0.59)[1] == 0
 
 
 def test_settle_parts_property_a_partition_that_moves_only_near_a_border():
