@@ -235,7 +235,8 @@ def one(task: dict) -> dict:
     # the estimated focal length against the true one (the photos come without intrinsics), and
     # how many points structure from motion triangulated: a weakly textured scene with few points
     # is where the shared focal length goes wrong (docs/results.md, round 18)
-    fx = [lifted.views[at[scene.views[i].name]].K[0, 0] / scene.views[i].K[0, 0] for i in reg if lifted.views[at[scene.views[i].name]].K is not None and scene.views[i].K is not None]
+    pairs = [(lifted.views[at[scene.views[i].name]].K, scene.views[i].K) for i in reg]
+    fx = [est[0, 0] / true[0, 0] for est, true in pairs if est is not None and true is not None]
     out["focal_ratio"] = float(np.median(fx)) if fx else None
     out["sfm_points"] = sfm.get("points")
     if len(reg) >= 2:

@@ -331,7 +331,6 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
     rows, cols = coo.row[link].astype(np.int64), coo.col[link].astype(np.int64)
     cap = np.maximum(np.round(coo.data[link] * 1000), 1).astype(np.int64)  # integer capacities, 1000 per full link
     adj = csr_matrix((np.ones(rows.size), (rows, cols)), shape=(m, m))
-    moved = np.zeros(m, bool)
     if band == 0 or len(parts) < 2:
         return [np.flatnonzero(pid == k) for k in range(len(parts))], 0
     start = pid.copy()
@@ -377,11 +376,8 @@ def settle_parts(W: Any, parts: Sequence[np.ndarray], *, band: int = 3, max_rati
         to_b = np.zeros(nodes.size + 2, bool)
         to_b[breadth_first_order(residual.T.tocsr(), t, directed=True, return_predecessors=False)] = True
         drawn = np.flatnonzero(near)
-        new = np.where(to_a[idx[drawn]], A, np.where(to_b[idx[drawn]], B, pid[drawn]))
-        moved[drawn[new != pid[drawn]]] = True
-        pid[drawn] = new
-    moved &= pid != start
-    return [np.flatnonzero(pid == k) for k in range(len(parts))], int(moved.sum())
+        pid[drawn] = np.where(to_a[idx[drawn]], A, np.where(to_b[idx[drawn]], B, pid[drawn]))
+    return [np.flatnonzero(pid == k) for k in range(len(parts))], int((pid != start).sum())
 
 
 def _labelled_points(labels: Sequence[np.ndarray], points: Sequence[np.ndarray], cameras: Sequence[tuple[Any, Any]], masks: Sequence[np.ndarray] | None = None) -> tuple[np.ndarray, ...] | None:
@@ -521,9 +517,10 @@ def split_objects(
         The largest object id in use (default: the largest in ``labels``); new
         parts are numbered after it.
     settle_band : int
-        After the cuts, the voxels within this many links of another part are
-        settled on the concave crease (:func:`settle_parts`), before the
-        ``masks`` guard; 0 (default) keeps the cuts' borders.
+        After the cuts, the voxels of two touching parts within this many
+        links of their border are divided again by a minimum cut of the link
+        weights (:func:`settle_parts`), before the ``masks`` guard; 0
+        (default) keeps the cuts' borders.
     rng : None, int or numpy.random.Generator, keyword-only
         Start vectors of the eigen-solver.
 
