@@ -355,7 +355,8 @@ def snap_to_masks(
     Notes
     -----
     O(P log P) for P labelled pixels: the (mask, object) pairs of each view are
-    counted by sorting, so memory grows with the pixels, not with the ids;
+    counted by :func:`graphseg.graphs.pair_counts` (a dense count only when the
+    ids are few, else one sort), so memory grows with the pixels, not with the ids;
     with ``points``, one voxel key per labelled pixel and a binary search
     among the voxels of the pixels that could move.
 
@@ -392,6 +393,8 @@ def snap_to_masks(
         raise ValueError(f"expected points for the {len(labels)} views (got {len(points)})")
     if not voxel_size > 0:
         raise ValueError(f"expected voxel_size > 0 (got {voxel_size})")
+    from ..graphs import pair_counts
+
     out = [np.array(lab, copy=True) for lab in labels]
     top = max(int(max((int(np.max(lab)) for lab in out if lab.size), default=0)), int(num_objects or 0))
     cols = top + 1
@@ -413,7 +416,7 @@ def snap_to_masks(
             moves.append((none, none, none, none))
             voters.append((none, none))
             continue
-        mask_of, obj_of, n = _pair_counts(m[keep], ob[keep], cols)
+        mask_of, obj_of, n = pair_counts(m[keep], ob[keep], max(int(m.max()) + 1, cols))  # (mask, object) pairs, sorted
         total = np.bincount(mask_of, weights=n, minlength=int(m.max()) + 1)
         owner, owned = _largest_per_group(mask_of, obj_of, n)  # each mask's main object (ties: the lower id)
         best = np.zeros(total.size, np.int64)
@@ -441,7 +444,7 @@ def snap_to_masks(
     gone[0] = False
     mapping = None
     if gone.any():
-        old_of, new_of, n = _pair_counts(src, dst, cols)
+        old_of, new_of, n = pair_counts(src, dst, cols)
         emptied, took = _largest_per_group(old_of, new_of, n)  # per old object: the new one that took most of its pixels (ties: the lower id)
         representative = np.arange(cols)
         take = gone[emptied]
@@ -450,12 +453,6 @@ def snap_to_masks(
         out = rename_objects(out, mapping)
     num = top if mapping is None else int(mapping.max(initial=0))
     return out, {"pixels": pixels, "masks": changed, "mapping": mapping, "num_objects": num}
-
-
-def _pair_counts(a: np.ndarray, b: np.ndarray, cols: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The distinct pairs ``(a, b)`` (``b < cols``), sorted, and how often each occurs."""
-    pair, n = np.unique(np.asarray(a, np.int64) * cols + b, return_counts=True)
-    return pair // cols, pair % cols, n
 
 
 def _largest_per_group(group: np.ndarray, item: np.ndarray, count: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
