@@ -305,7 +305,12 @@ class SplitConfig(_Model):
     step across it, is at least ``join_shared`` of the smaller one's outline
     are joined (:func:`graphseg.method.join.join_objects`): pieces too small
     or too interleaved (the stripes of one box) for the 3D cut. Off for
-    measured depth, on for estimated points (``lifted.split``). Then, in every
+    measured depth, on for estimated points (``lifted.split``). Then an
+    object whose pixels lie mostly (``mask_join``) in masks that hold another,
+    larger object of the same mean colour (``mask_join_color``) joins it
+    (:func:`graphseg.method.join.join_by_masks`): the split cut one object
+    along a crease of its own surface that no view's mask follows. Off by
+    default, 0.5 in the ``rgbd`` preset. Then, in every
     mask with at least ``snap_share`` of its labelled pixels in one object,
     the other pixels go to that object where the other views' masks agree at
     the same voxel (:func:`graphseg.method.masks.snap_to_masks` with the
@@ -343,6 +348,13 @@ class SplitConfig(_Model):
         ge=0,
         description="last, join two objects whose border without a depth step is at least this share of the smaller one's outline in the views (None: never)",
     )
+    mask_join: float | None = Field(
+        None,
+        ge=0,
+        le=1,
+        description="then join an object to the larger object whose masks (a mask holding at least 30% of its labelled pixels there) cover at least this share of its pixels, when their mean colours are within mask_join_color (None: never)",
+    )
+    mask_join_color: float = Field(10.0, ge=0, description="mask_join's largest distance of the two objects' mean CIE Lab colours (L 0..100)")
     snap_share: float | None = Field(
         None,
         gt=0.5,

@@ -27,7 +27,7 @@ PRESETS: dict[str, dict[str, Any]] = {
             [{"chamfer_3d": {"tau": TAU_3D_OFFICIAL}}],
         ],
         "background": {"max_overlap": 0.5},
-        "split": {"enabled": True, "snap_share": 0.85},
+        "split": {"enabled": True, "mask_join": 0.5, "snap_share": 0.85},
     },
     # rgbd plus the robust contraction of issue 12 (measured in docs/results.md, "Robust contraction")
     "robust": {

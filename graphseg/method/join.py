@@ -17,6 +17,13 @@ It is an image-space complement to
 :func:`graphseg.method.split.merge_objects`, which needs a few hundred voxels
 per object and misses small or interleaved pieces.
 
+:func:`join_by_masks` joins pieces by the masks instead: the 3D split can cut
+one object along a concave crease of its own surface (a curved banana) when
+no view's mask does. An object whose pixels lie mostly in masks that hold a
+large share of another object, and whose mean colour is that object's, joins
+it. Touching objects that the masks do not part (geometric masks straddle
+them where no depth step divides them) differ in colour, and stay apart.
+
 Examples
 --------
 Two interleaved stripe sets of one flat surface are joined; two side-by-side
@@ -44,9 +51,10 @@ from typing import Any
 
 import numpy as np
 
+from ..backends.imaging import to_lab
 from .masks import close_id_gaps, rename_objects
 
-__all__ = ["border_contact", "join_objects"]
+__all__ = ["border_contact", "join_objects", "join_by_masks"]
 
 
 def border_contact(
@@ -210,6 +218,149 @@ def join_objects(
             break
         root = nxt
     first = np.full(top + 1, top + 1, np.int64)
+    np.minimum.at(first, root, ids)  # each group's smallest id
+    representative = first[root]
+    mapping = close_id_gaps(representative, representative != ids)
+    return rename_objects(labels, mapping if joins else None), {"joins": joins, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}
+
+
+def join_by_masks(
+    labels: Sequence[np.ndarray],
+    masks: Sequence[np.ndarray],
+    images: Sequence[np.ndarray],
+    *,
+    min_cover: float = 0.5,
+    max_color: float = 10.0,
+    straddle: float = 0.3,
+    num_objects: int | None = None,
+) -> tuple[list[np.ndarray], dict[str, Any]]:
+    """Join every object to the larger object that the views' masks hold it together with, when the two look alike.
+
+    A mask *holds* an object when at least ``straddle`` of the mask's labelled
+    pixels lie in it. The cover of object ``a`` by object ``b`` is the share of
+    ``a``'s labelled pixels (all views) that lie in masks holding ``b``. Each
+    object joins at most one larger object (more labelled pixels; ties: the
+    larger id), the one that covers it most, when that cover is at least
+    ``min_cover`` and the mean CIE Lab colours of the two objects (over their
+    labelled pixels) are at most ``max_color`` apart. So a piece goes to one
+    object by its strongest evidence and never bridges two larger objects; joins
+    chain upwards. The covers and colours are measured once, on the objects as
+    given.
+
+    Parameters
+    ----------
+    labels : list of int ``[H, W]``
+        Object ids per view (<= 0 = none), consistent across views.
+    masks : list of int ``[H, W]``
+        The composed masks per view, ``mask_id + 1`` (0 = none).
+    images : list of uint8 ``[H, W, 3]``
+        The views' RGB images.
+    min_cover : float
+        Least cover of the smaller object for a join (``inf``: never join).
+    max_color : float
+        Largest distance of the two mean colours (CIE Lab, L in 0..100).
+    straddle : float
+        Share of a mask's labelled pixels that make it hold an object.
+    num_objects : int, optional
+        The largest object id (default: the largest in ``labels``).
+
+    Returns
+    -------
+    labels : list of int ``[H, W]``
+        New arrays of the input dtypes (the inputs are not modified): each
+        group of joined objects takes its smallest id, and the ids above a
+        freed one move down. Labels <= 0 are kept.
+    info : dict
+        ``joins``: ``{"ids": [piece, object], "cover", "color"}`` per join,
+        highest cover first, with the ids as given; ``mapping``: int64
+        ``[T + 1]``, the new id of every old id (0 stays 0); ``num_objects``:
+        the largest id now.
+
+    Notes
+    -----
+    O(total pixels): one colour conversion and one (mask, object) count per
+    view, then O(T^2) for T objects.
+
+    Examples
+    --------
+    Two halves of one yellow object, each mask spanning both, are joined; a
+    blue object that the same masks span stays apart:
+
+    >>> lab = np.array([[1, 1, 2, 2, 3, 3]], np.int32)
+    >>> mk = np.array([[1, 1, 1, 1, 2, 2]])
+    >>> img = np.zeros((1, 6, 3), np.uint8); img[0, :4] = (230, 200, 40); img[0, 4:] = (40, 60, 200)
+    >>> out, info = join_by_masks([lab], [mk], [img])
+    >>> out[0].tolist(), [j["ids"] for j in info["joins"]], info["mapping"].tolist()
+    ([[1, 1, 1, 1, 2, 2]], [[1, 2]], [0, 1, 1, 2])
+    >>> mk2 = np.array([[1, 1, 1, 1, 1, 1]])                  # one mask over all three
+    >>> join_by_masks([lab], [mk2], [img])[1]["mapping"].tolist()
+    [0, 1, 1, 2]
+    """
+    from ..graphs import pair_counts
+
+    n = len(labels)
+    if not (len(masks) == len(images) == n):
+        raise ValueError(f"expected labels, masks and images for the same views (got {n}, {len(masks)}, {len(images)})")
+    if not min_cover >= 0 or not max_color >= 0:
+        raise ValueError(f"expected min_cover >= 0 and max_color >= 0 (got {min_cover}, {max_color})")
+    if not 0 < straddle <= 1:
+        raise ValueError(f"expected 0 < straddle <= 1 (got {straddle})")
+    top = max(int(max((int(np.max(lab)) for lab in labels if np.size(lab)), default=0)), int(num_objects or 0))
+    k = top + 1
+    size = np.zeros(k, np.int64)
+    color = np.zeros((k, 3))
+    cover = np.zeros((k, k))
+    for v, (lab, mk, im) in enumerate(zip(labels, masks, images)):
+        ob = np.clip(np.asarray(lab), 0, None).astype(np.int64)
+        mk = np.asarray(mk).astype(np.int64)
+        im = np.asarray(im)
+        if mk.shape != ob.shape:
+            raise ValueError(f"view {v}: expected masks of shape {list(ob.shape)} (got {list(mk.shape)})")
+        if im.shape != (*ob.shape, 3) or im.dtype != np.uint8:
+            raise ValueError(f"view {v}: expected a uint8 image of shape {[*ob.shape, 3]} (got {im.dtype} {list(im.shape)})")
+        sel = ob > 0
+        if not sel.any():
+            continue
+        o = ob[sel]
+        size += np.bincount(o, minlength=k)
+        col = to_lab(im)[sel].astype(np.float64) - (0.0, 128.0, 128.0)  # OpenCV's 8-bit Lab -> L 0..255, a, b signed
+        for c in range(3):
+            color[:, c] += np.bincount(o, weights=col[:, c], minlength=k)
+        m = mk[sel]
+        keep = m > 0
+        if not keep.any():
+            continue
+        mask_of, obj_of, cnt = pair_counts(m[keep], o[keep], max(int(m.max()) + 1, k))  # (mask, object) pairs, sorted by mask
+        total = np.bincount(mask_of, weights=cnt)
+        holds = cnt >= straddle * total[mask_of]
+        # every (row, holder of the same mask) pair: a's pixels in a mask that holds b
+        starts = np.searchsorted(mask_of, mask_of, side="left")
+        ends = np.searchsorted(mask_of, mask_of, side="right")
+        rows = np.repeat(np.arange(mask_of.size), ends - starts)
+        other = np.concatenate([np.arange(s, e) for s, e in zip(starts, ends)]) if rows.size else rows
+        pick = holds[other] & (obj_of[rows] != obj_of[other])
+        np.add.at(cover, (obj_of[rows[pick]], obj_of[other[pick]]), cnt[rows[pick]])
+    color[:, 0] *= 100.0 / 255.0
+    color /= np.maximum(size, 1)[:, None]
+    share = cover / np.maximum(size, 1)[:, None]
+    ids = np.arange(k)
+    larger = (size[None, :] > size[:, None]) | ((size[None, :] == size[:, None]) & (ids[None, :] > ids[:, None]))
+    share = np.where(larger & (size[None, :] > 0), share, 0.0)
+    share[0], share[:, 0] = 0.0, 0.0
+    best = share.argmax(1)
+    value = share[ids, best]
+    dist = np.linalg.norm(color - color[best], axis=1)
+    piece = np.flatnonzero((value >= min_cover) & (value > 0) & (dist <= max_color))
+    piece = piece[np.argsort(-value[piece], kind="stable")]
+    joins = [{"ids": [int(a), int(best[a])], "cover": round(float(value[a]), 6), "color": round(float(dist[a]), 3)} for a in piece]
+    root = ids.copy()  # the pointers run to a larger object: follow them to the end of each chain
+    root[piece] = best[piece]
+    while True:
+        nxt = root[root]
+        if np.array_equal(nxt, root):
+            break
+        root = nxt
+    first = np.full(k, k, np.int64)
     np.minimum.at(first, root, ids)  # each group's smallest id
     representative = first[root]
     mapping = close_id_gaps(representative, representative != ids)

@@ -43,7 +43,7 @@ from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
-from .join import join_objects
+from .join import join_by_masks, join_objects
 from .masks import compose_masks, majority_objects, paint_masks, snap_to_masks
 from .refine import project_to_view, refine_labels
 from .split import merge_objects, split_objects
@@ -901,7 +901,8 @@ def finish_segmentation(
         and ``merge_mapping`` (:func:`~graphseg.method.split.merge_objects`'
         ``merges``, and its ``mapping`` as a list, or None without a merge), the
         ``joins`` of :func:`~graphseg.method.join.join_objects` (``split.join_shared``;
-        empty when off), ``snapped`` (the pixels :func:`~graphseg.method.masks.snap_to_masks`
+        empty when off), ``mask_joins`` (those of
+        :func:`~graphseg.method.join.join_by_masks`; ``split.mask_join``), ``snapped`` (the pixels :func:`~graphseg.method.masks.snap_to_masks`
         relabelled; ``split.snap_share``) and ``num_objects`` (the final count).
     start : float, optional, keyword-only
         :func:`time.perf_counter` at the start of the run, for
@@ -1008,6 +1009,15 @@ def finish_segmentation(
             out_labels, joined = join_objects(out_labels, points, cameras, min_shared=sp.join_shared, num_objects=split_info["num_objects"])
             if joined["joins"]:
                 split_info["joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
+                obj = joined["mapping"][obj]
+                changed = True
+        split_info["mask_joins"] = []
+        if sp.mask_join is not None:  # pieces of one object that the masks hold together and that look alike
+            out_labels, joined = join_by_masks(
+                out_labels, labels, [v.rgb for v in views], min_cover=sp.mask_join, max_color=sp.mask_join_color, num_objects=split_info["num_objects"]
+            )
+            if joined["joins"]:
+                split_info["mask_joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
                 obj = joined["mapping"][obj]
                 changed = True
         split_info["snapped"] = 0

@@ -5,7 +5,8 @@ from hypothesis import strategies as st
 
 from graphseg.config import Config
 from graphseg.method import segment
-from graphseg.method.join import border_contact, join_objects
+from graphseg.method.join import border_contact, join_by_masks, join_objects
+from graphseg.metrics import evaluate
 from graphseg.sim.boxes import Box
 from graphseg.testing.scenes import box_scene, exact_matches
 
@@ -167,3 +168,157 @@ def test_smaller_pieces_come_along_when_their_piece_joins():
     lab[9:11, 16] = 3  # a smaller piece touching only the piece: 2 of 6
     out, info = join_objects([lab], [flat(20, 24)], [CAM])
     assert sorted(j["ids"] for j in info["joins"]) == [[2, 1], [3, 2]] and np.unique(out[0]).tolist() == [0, 1]
+
+
+YELLOW, BLUE = (230, 200, 40), (40, 60, 200)
+
+
+def painted(lab, colors):
+    """A uint8 image with every object id painted in its colour (0: grey)."""
+    img = np.full((*lab.shape, 3), 128, np.uint8)
+    for k, c in colors.items():
+        img[lab == k] = c
+    return img
+
+
+def banana():
+    """One yellow object cut in two (ids 1, 2) beside a blue one (3); each view's mask spans 1 and 2."""
+    lab = np.zeros((10, 12), np.int32)
+    lab[2:8, 1:4], lab[2:8, 4:6], lab[2:8, 7:11] = 1, 2, 3
+    mk = np.zeros((10, 12), np.int64)
+    mk[2:8, 1:6], mk[2:8, 7:11] = 1, 2
+    return lab, mk, painted(lab, {1: YELLOW, 2: YELLOW, 3: BLUE})
+
+
+def test_join_by_masks_shapes_and_inputs_kept():
+    lab, mk, img = banana()
+    before = lab.copy()
+    out, info = join_by_masks([lab, lab], [mk, mk], [img, img], num_objects=4)
+    assert len(out) == 2 and out[0].shape == lab.shape and out[0].dtype == lab.dtype and out[0] is not lab
+    assert (lab == before).all()  # the input is not modified
+    assert info["mapping"].shape == (5,) and info["mapping"].dtype == np.int64
+    assert info["num_objects"] == 3  # 1 and 2 joined; 4 (unused) moves down to 3
+
+
+def test_join_by_masks_by_hand():
+    lab, mk, img = banana()
+    out, info = join_by_masks([lab], [mk], [img])
+    # object 2 (12 px) lies wholly in mask 1, which holds 1 (18 px, 60%): cover 1.0; same colour
+    assert info["joins"] == [{"ids": [2, 1], "cover": 1.0, "color": 0.0}]
+    assert info["mapping"].tolist() == [0, 1, 1, 2] and np.unique(out[0]).tolist() == [0, 1, 2]
+    assert (out[0][lab == 3] == 2).all() and (out[0][lab == 2] == 1).all()
+    # a mask holds an object at 30% of its labelled pixels: 2 holds 12 / 30 = 40% of mask 1, so 1 is
+    # covered by 2 too, but 1 is the larger and only joins a larger object
+    assert join_by_masks([lab], [mk], [img], straddle=0.5)[1]["joins"] == [{"ids": [2, 1], "cover": 1.0, "color": 0.0}]
+    assert join_by_masks([lab], [mk], [img], straddle=0.7)[1]["joins"] == []  # no mask holds 1 at 70% (60%)
+
+
+def test_join_by_masks_keeps_objects_of_other_colours_and_separate_masks_apart():
+    lab, mk, img = banana()
+    two = painted(lab, {1: YELLOW, 2: BLUE, 3: BLUE})  # the same masks, but 2 is blue
+    assert join_by_masks([lab], [mk], [two])[1]["joins"] == []
+    d = join_by_masks([lab], [mk], [two], max_color=1000.0)[1]
+    assert [j["ids"] for j in d["joins"]] == [[2, 1]] and d["joins"][0]["color"] > 100
+    own = np.where(lab == 2, 3, mk)  # 2 in a mask of its own: nothing holds it with 1
+    assert join_by_masks([lab], [own], [img])[1]["joins"] == []
+    assert join_by_masks([lab], [mk], [img], min_cover=np.inf)[1]["joins"] == []  # never join
+
+
+def test_join_by_masks_counts_cover_over_all_views():
+    lab, mk, img = banana()
+    own = np.where(lab == 2, 3, mk)  # a second view whose masks part 1 and 2
+    assert join_by_masks([lab, lab], [mk, own], [img, img])[1]["joins"][0]["cover"] == 0.5
+    assert join_by_masks([lab, lab], [mk, own], [img, img], min_cover=0.6)[1]["joins"] == []
+
+
+def test_join_by_masks_a_piece_never_bridges_two_larger_objects():
+    lab = np.zeros((10, 16), np.int32)
+    lab[2:8, 1:7], lab[2:8, 7:9], lab[2:8, 9:15] = 1, 2, 3  # a small piece between two large yellow objects
+    left = np.where(lab == 3, 2, np.where(lab > 0, 1, 0))  # view A: the piece in the mask of 1 (12 of 48 px)
+    right = np.where(lab == 1, 1, np.where(lab > 0, 2, 0))  # view B: the piece in the mask of 3
+    img = painted(lab, {1: YELLOW, 2: YELLOW, 3: YELLOW})
+    out, info = join_by_masks([lab, lab], [left, right], [img, img])
+    # the piece is covered by each at 0.5 and joins one (equal covers: the first, 1); no mask ever
+    # holds 1 and 3 together, so they stay apart although the piece touched both
+    assert info["joins"] == [{"ids": [2, 1], "cover": 0.5, "color": 0.0}]
+    assert info["num_objects"] == 2 and np.unique(out[0]).tolist() == [0, 1, 2]
+
+
+def test_join_by_masks_edge_cases():
+    lab, mk, img = banana()
+    out, info = join_by_masks([np.zeros((4, 4), np.int32)], [np.zeros((4, 4))], [np.zeros((4, 4, 3), np.uint8)])
+    assert info == {"joins": [], "mapping": info["mapping"], "num_objects": 0} and info["mapping"].tolist() == [0]
+    neg = np.where(lab == 3, -1, lab)  # negative labels are kept
+    out, info = join_by_masks([neg], [mk], [img])
+    assert (out[0][lab == 3] == -1).all() and info["mapping"].tolist() == [0, 1, 1]
+    assert join_by_masks([lab], [np.zeros_like(mk)], [img])[1]["joins"] == []  # no masks: nothing holds anything
+    with pytest.raises(ValueError, match="same views"):
+        join_by_masks([lab], [], [img])
+    with pytest.raises(ValueError, match=r"view 0: expected masks of shape \[10, 12\] \(got \[4, 4\]\)"):
+        join_by_masks([lab], [np.zeros((4, 4))], [img])
+    with pytest.raises(ValueError, match=r"view 0: expected a uint8 image of shape \[10, 12, 3\]"):
+        join_by_masks([lab], [mk], [img.astype(np.float32)])
+    with pytest.raises(ValueError, match="min_cover >= 0"):
+        join_by_masks([lab], [mk], [img], min_cover=-1.0)
+    with pytest.raises(ValueError, match="0 < straddle <= 1"):
+        join_by_masks([lab], [mk], [img], straddle=0.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(0, 4), min_size=36, max_size=36), st.lists(st.integers(0, 3), min_size=36, max_size=36), st.floats(0.0, 1.0))
+def test_join_by_masks_only_renames_objects(cells, mask_cells, min_cover):
+    lab = np.array(cells, np.int32).reshape(6, 6)
+    mk = np.array(mask_cells, np.int64).reshape(6, 6)
+    img = painted(lab, {1: YELLOW, 2: YELLOW, 3: BLUE, 4: YELLOW})
+    out, info = join_by_masks([lab], [mk], [img], min_cover=min_cover, num_objects=4)
+    mapping = info["mapping"]
+    assert (out[0] == mapping[lab]).all()  # every pixel follows its object; 0 stays 0
+    assert mapping[0] == 0 and (mapping <= np.arange(mapping.size)).all()
+    assert sorted(set(mapping[1:].tolist())) == list(range(1, info["num_objects"] + 1))
+    assert info["num_objects"] == 4 - len(info["joins"])
+    assert all(j["cover"] >= min_cover and j["color"] <= 10.0 for j in info["joins"])
+    assert all(3 not in j["ids"] for j in info["joins"])  # the blue one never joins a yellow one
+
+
+def test_rgbd_preset_joins_by_masks():
+    assert Config.preset("rgbd").split.mask_join == 0.5 and Config().split.mask_join is None
+    assert Config.preset("robust").split.mask_join is None
+    assert Config.preset("rgbd").for_lifter("sfm").split.mask_join == 0.5
+
+
+TOUCHING = (  # a red and a blue box side by side, touching along x = 0 (as in test_split.py)
+    Box((-0.05, 0.0, 0.05), (0.10, 0.10, 0.10), yaw=0.0, color=(200, 60, 60)),
+    Box((0.045, 0.03, 0.035), (0.09, 0.12, 0.07), yaw=0.0, color=(60, 90, 200)),
+)
+
+
+def test_segment_joins_a_box_the_split_cut_in_two_but_not_two_boxes_one_mask_spans(monkeypatch):
+    import sys
+
+    seg_mod = sys.modules["graphseg.method.segment"]
+    scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
+    masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
+    real = seg_mod.split_objects
+
+    def halved(*a, **k):  # a split that also cuts the red box in two at x = -0.05 (new id 3)
+        out, info = real(*a, **k)
+        new = []
+        for lab, p in zip(out, a[1]):
+            lab = lab.copy()
+            lab[(lab == 1) & (p[..., 0] > -0.05)] = info["num_objects"] + 1
+            new.append(lab)
+        return new, {**info, "num_objects": info["num_objects"] + 1}
+
+    monkeypatch.setattr(seg_mod, "split_objects", halved)
+    base = {"fine_voxel_size": None, "merge_ncut": None}  # no 3D merge, which would join the halves too
+    off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "mask_join": None}))
+    assert off.num_objects == 3 and off.info["split"]["mask_joins"] == []
+    res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split=base))
+    assert res.num_objects == 2 and [sorted(j["ids"]) for j in res.info["split"]["mask_joins"]] == [[1, 3]]
+    assert res.mask_object.tolist() == [1, 2] * 3
+    for v, lab in zip(scene.views, res.labels):
+        assert evaluate([lab], [v.instances], [v.points])["mean"]["iou"] > 0.95
+    monkeypatch.setattr(seg_mod, "split_objects", real)
+    one = [[v.instances > 0] for v in scene.views]  # one mask over both boxes in every view: the split parts them
+    res = segment(scene, one, exact_matches(scene), Config.preset("rgbd"))
+    assert res.num_objects == 2 and res.info["split"]["mask_joins"] == []  # red and blue: never joined

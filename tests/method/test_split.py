@@ -416,7 +416,7 @@ def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_
     monkeypatch.setattr(seg_mod, "split_objects", shuffled)
     snap = seg_mod.snap_to_masks  # by share alone, so that it empties id 1 even where only one view sees a pixel
     monkeypatch.setattr(seg_mod, "snap_to_masks", lambda *a, points, **k: snap(*a, **k))
-    base = {"merge_ncut": None, "fine_voxel_size": None}
+    base = {"merge_ncut": None, "fine_voxel_size": None, "mask_join": None}  # the mask join would join 1 and 3 first
     off = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "snap_share": None}))
     assert off.num_objects == 3 and off.mask_object.tolist() == [3, 2] * 3
     res = segment(scene, masks, exact_matches(scene), Config.preset("rgbd", split={**base, "snap_share": 0.85}))
