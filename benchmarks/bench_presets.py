@@ -20,6 +20,7 @@ and ``"robust without split"``, the presets without their 3D split and merge of
 objects, whose time is the ``split`` column; ``"rgbd without merge"``, the
 split alone; ``"rgbd, one split grid"``, the split without its fine 5 mm pass;
 ``"rgbd, no mask snap"``, rgbd without giving the pixels the voxel border cut off a mask back;
+``"rgbd, no mask join"``, rgbd without joining the pieces its masks hold together (``split.mask_join``);
 ``"rgbd + borders drawn again"``, rgbd with the minimum cut that draws each split border again, ``split.settle_band`` 3).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
@@ -52,6 +53,7 @@ VARIANTS = {
     "rgbd without merge": lambda: Config.preset("rgbd", split={"enabled": True, "merge_ncut": None}),
     "rgbd, one split grid": lambda: Config.preset("rgbd", split={"fine_voxel_size": None}),
     "rgbd, no mask snap": lambda: Config.preset("rgbd", split={"snap_share": None}),
+    "rgbd, no mask join": lambda: Config.preset("rgbd", split={"mask_join": None}),
     "rgbd + borders drawn again": lambda: Config.preset("rgbd", split={"settle_band": 3}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
