@@ -210,18 +210,28 @@ def join_objects(
     piece = np.flatnonzero((value >= min_shared) & (value > 0))  # shares are at most 1: inf never joins
     piece = piece[np.argsort(-value[piece], kind="stable")]
     joins = [{"ids": [int(a), int(best[a])], "shared": round(float(value[a]), 6)} for a in piece]
-    root = ids.copy()  # the pointers run to a longer outline: follow them to the end of each chain
+    mapping = _join_mapping(best, piece)  # the pointers run to a longer outline
+    return rename_objects(labels, mapping if joins else None), {"joins": joins, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}
+
+
+def _join_mapping(best: np.ndarray, piece: np.ndarray) -> np.ndarray:
+    """New id of every old id ``[T + 1]`` after each ``piece`` joined ``best[piece]`` (pointers that only run upwards).
+
+    The chains are followed to their ends; each group takes its smallest id and
+    the ids above a freed one move down (:func:`close_id_gaps`).
+    """
+    ids = np.arange(best.size)
+    root = ids.copy()
     root[piece] = best[piece]
     while True:
         nxt = root[root]
         if np.array_equal(nxt, root):
             break
         root = nxt
-    first = np.full(top + 1, top + 1, np.int64)
+    first = np.full(best.size, best.size, np.int64)
     np.minimum.at(first, root, ids)  # each group's smallest id
     representative = first[root]
-    mapping = close_id_gaps(representative, representative != ids)
-    return rename_objects(labels, mapping if joins else None), {"joins": joins, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}
+    return close_id_gaps(representative, representative != ids)
 
 
 def join_by_masks(
@@ -353,15 +363,5 @@ def join_by_masks(
     piece = np.flatnonzero((value >= min_cover) & (value > 0) & (dist <= max_color))
     piece = piece[np.argsort(-value[piece], kind="stable")]
     joins = [{"ids": [int(a), int(best[a])], "cover": round(float(value[a]), 6), "color": round(float(dist[a]), 3)} for a in piece]
-    root = ids.copy()  # the pointers run to a larger object: follow them to the end of each chain
-    root[piece] = best[piece]
-    while True:
-        nxt = root[root]
-        if np.array_equal(nxt, root):
-            break
-        root = nxt
-    first = np.full(k, k, np.int64)
-    np.minimum.at(first, root, ids)  # each group's smallest id
-    representative = first[root]
-    mapping = close_id_gaps(representative, representative != ids)
+    mapping = _join_mapping(best, piece)  # the pointers run to a larger object
     return rename_objects(labels, mapping if joins else None), {"joins": joins, "mapping": mapping, "num_objects": int(mapping.max(initial=0))}
