@@ -352,7 +352,7 @@ class SplitConfig(_Model):
         None,
         ge=0,
         le=1,
-        description="then join an object to the larger object whose masks (a mask holding at least 30% of its labelled pixels there) cover at least this share of its pixels, when their mean colours are within mask_join_color (None: never)",
+        description="then join an object to the larger object whose masks (those with at least 30% of their labelled pixels in that object) hold at least this share of its pixels, when their mean colours are within mask_join_color (None: never)",
     )
     mask_join_color: float = Field(10.0, ge=0, description="mask_join's largest distance of the two objects' mean CIE Lab colours (L 0..100)")
     snap_share: float | None = Field(

@@ -249,13 +249,14 @@ def join_by_masks(
     A mask *holds* an object when at least ``straddle`` of the mask's labelled
     pixels lie in it. The cover of object ``a`` by object ``b`` is the share of
     ``a``'s labelled pixels (all views) that lie in masks holding ``b``. Each
-    object joins at most one larger object (more labelled pixels; ties: the
-    larger id), the one that covers it most, when that cover is at least
-    ``min_cover`` and the mean CIE Lab colours of the two objects (over their
-    labelled pixels) are at most ``max_color`` apart. So a piece goes to one
-    object by its strongest evidence and never bridges two larger objects; joins
-    chain upwards. The covers and colours are measured once, on the objects as
-    given.
+    object takes one partner: the larger object (more labelled pixels; equal
+    counts: the larger id) that covers it most (equal covers: the smaller id).
+    It joins that partner when the cover is at least ``min_cover`` and the mean
+    CIE Lab colours of the two (over their labelled pixels) are at most
+    ``max_color`` apart; another, closer-coloured object is not tried. So a
+    piece goes to one object by its strongest evidence and never bridges two
+    larger objects; joins chain upwards. The covers and colours are measured
+    once, on the objects as given.
 
     Parameters
     ----------
@@ -272,7 +273,8 @@ def join_by_masks(
     straddle : float
         Share of a mask's labelled pixels that make it hold an object.
     num_objects : int, optional
-        The largest object id (default: the largest in ``labels``).
+        The largest object id; the larger of this and the largest id in
+        ``labels`` is used (default: the labels' largest).
 
     Returns
     -------
@@ -289,12 +291,14 @@ def join_by_masks(
     Notes
     -----
     O(total pixels): one colour conversion and one (mask, object) count per
-    view, then O(T^2) for T objects.
+    view, plus, per mask, its objects times its holders (at most
+    ``1 / straddle``); then O(T^2) for T objects.
 
     Examples
     --------
-    Two halves of one yellow object, each mask spanning both, are joined; a
-    blue object that the same masks span stays apart:
+    Two halves of one yellow object in one mask are joined; the blue object
+    in a mask of its own stays apart, and so it does when one mask spans all
+    three:
 
     >>> lab = np.array([[1, 1, 2, 2, 3, 3]], np.int32)
     >>> mk = np.array([[1, 1, 1, 1, 2, 2]])
@@ -342,13 +346,13 @@ def join_by_masks(
             continue
         mask_of, obj_of, cnt = pair_counts(m[keep], o[keep], max(int(m.max()) + 1, k))  # (mask, object) pairs, sorted by mask
         total = np.bincount(mask_of, weights=cnt)
-        holds = cnt >= straddle * total[mask_of]
-        # every (row, holder of the same mask) pair: a's pixels in a mask that holds b
-        starts = np.searchsorted(mask_of, mask_of, side="left")
-        ends = np.searchsorted(mask_of, mask_of, side="right")
-        rows = np.repeat(np.arange(mask_of.size), ends - starts)
-        other = np.concatenate([np.arange(s, e) for s, e in zip(starts, ends)]) if rows.size else rows
-        pick = holds[other] & (obj_of[rows] != obj_of[other])
+        holder = np.flatnonzero(cnt + 1e-9 * total[mask_of] >= straddle * total[mask_of])  # rows whose object the mask holds
+        # every (row, holder of the same mask) pair, at most 1 / straddle holders a mask: a's pixels in a mask that holds b
+        start = np.searchsorted(mask_of, mask_of[holder], side="left")
+        span = np.searchsorted(mask_of, mask_of[holder], side="right") - start
+        other = np.repeat(holder, span)
+        rows = np.repeat(start, span) + np.arange(int(span.sum())) - np.repeat(np.cumsum(span) - span, span)
+        pick = obj_of[rows] != obj_of[other]
         np.add.at(cover, (obj_of[rows[pick]], obj_of[other[pick]]), cnt[rows[pick]])
     color[:, 0] *= 100.0 / 255.0
     color /= np.maximum(size, 1)[:, None]

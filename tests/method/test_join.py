@@ -192,10 +192,10 @@ def banana():
 
 def test_join_by_masks_shapes_and_inputs_kept():
     lab, mk, img = banana()
-    before = lab.copy()
+    before = (lab.copy(), mk.copy(), img.copy())
     out, info = join_by_masks([lab, lab], [mk, mk], [img, img], num_objects=4)
     assert len(out) == 2 and out[0].shape == lab.shape and out[0].dtype == lab.dtype and out[0] is not lab
-    assert (lab == before).all()  # the input is not modified
+    assert all((x == y).all() for x, y in zip((lab, mk, img), before))  # no input is modified
     assert info["mapping"].shape == (5,) and info["mapping"].dtype == np.int64
     assert info["num_objects"] == 3  # 1 and 2 joined; 4 (unused) moves down to 3
 
@@ -264,13 +264,38 @@ def test_join_by_masks_edge_cases():
         join_by_masks([lab], [mk], [img], straddle=0.0)
 
 
-@settings(max_examples=40, deadline=None)
+def partners_by_loops(lab, mk, blue, straddle=0.3):
+    """Each object's partner and cover, pixel by pixel (one view; the colours are yellow but for ``blue``)."""
+    size = {a: int((lab == a).sum()) for a in range(1, 5)}
+    cover = {(a, b): 0 for a in size for b in size}
+    for m in set(mk.ravel().tolist()) - {0}:
+        inside = {a: int(((mk == m) & (lab == a)).sum()) for a in size}
+        total = sum(inside.values())
+        for a in size:
+            for b in size:
+                if a != b and total and inside[b] >= straddle * total:
+                    cover[a, b] += inside[a]
+    out = {}
+    for a in size:
+        if not size[a]:
+            continue
+        larger = [b for b in size if size[b] and (size[b], b) > (size[a], a)]
+        shares = [(cover[a, b] / size[a], -b) for b in larger]
+        if shares and max(shares)[0] > 0:
+            c, b = max(shares)
+            out[a] = (-b, c, (a in blue) == (-b in blue))
+    return out
+
+
+@settings(max_examples=60, deadline=None)
 @given(st.lists(st.integers(0, 4), min_size=36, max_size=36), st.lists(st.integers(0, 3), min_size=36, max_size=36), st.floats(0.0, 1.0))
 def test_join_by_masks_only_renames_objects(cells, mask_cells, min_cover):
     lab = np.array(cells, np.int32).reshape(6, 6)
     mk = np.array(mask_cells, np.int64).reshape(6, 6)
     img = painted(lab, {1: YELLOW, 2: YELLOW, 3: BLUE, 4: YELLOW})
     out, info = join_by_masks([lab], [mk], [img], min_cover=min_cover, num_objects=4)
+    expected = {a: b for a, (b, c, same) in partners_by_loops(lab, mk, {3}).items() if same and c >= min_cover}
+    assert {j["ids"][0]: j["ids"][1] for j in info["joins"]} == expected  # the joins a pixel-by-pixel count gives
     mapping = info["mapping"]
     assert (out[0] == mapping[lab]).all()  # every pixel follows its object; 0 stays 0
     assert mapping[0] == 0 and (mapping <= np.arange(mapping.size)).all()
