@@ -1004,20 +1004,21 @@ def finish_segmentation(
                 obj = merged["mapping"][obj]
                 split_info["num_objects"] = merged["num_objects"]
                 changed = True
-        split_info["joins"] = []
-        if sp.join_shared is not None:
-            out_labels, joined = join_objects(out_labels, points, cameras, min_shared=sp.join_shared, num_objects=split_info["num_objects"])
+        joiners = (  # pieces that share most of their image border; pieces that the masks hold together and that look alike
+            ("joins", sp.join_shared, lambda lab, top, at: join_objects(lab, points, cameras, min_shared=at, num_objects=top)),
+            (
+                "mask_joins",
+                sp.mask_join,
+                lambda lab, top, at: join_by_masks(lab, labels, [v.rgb for v in views], min_cover=at, max_color=sp.mask_join_color, num_objects=top),
+            ),
+        )
+        for key, setting, join in joiners:
+            split_info[key] = []
+            if setting is None:
+                continue
+            out_labels, joined = join(out_labels, split_info["num_objects"], setting)
             if joined["joins"]:
-                split_info["joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
-                obj = joined["mapping"][obj]
-                changed = True
-        split_info["mask_joins"] = []
-        if sp.mask_join is not None:  # pieces of one object that the masks hold together and that look alike
-            out_labels, joined = join_by_masks(
-                out_labels, labels, [v.rgb for v in views], min_cover=sp.mask_join, max_color=sp.mask_join_color, num_objects=split_info["num_objects"]
-            )
-            if joined["joins"]:
-                split_info["mask_joins"], split_info["num_objects"] = joined["joins"], joined["num_objects"]
+                split_info[key], split_info["num_objects"] = joined["joins"], joined["num_objects"]
                 obj = joined["mapping"][obj]
                 changed = True
         split_info["snapped"] = 0
