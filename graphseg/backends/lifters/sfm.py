@@ -125,14 +125,8 @@ def not_registered_message(registered: int, total: int) -> str:
     )
 
 
-def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, seed: int, known_K: bool, pooling: bool = False) -> tuple[Any, Any, Any, Any]:
-    """COLMAP's options (extraction, matching, two-view verification, mapping): seeded RANSAC per image pair, mapping single-threaded, guided matching and low inlier minimums.
-
-    Every two-view RANSAC is seeded with ``seed`` itself (COLMAP's
-    ``RANSACOptions.random_seed``), so the verified matches of a pair do not
-    depend on which matching thread took it or what it drew before: matching
-    may run on several threads with the same result. Mapping stays on one
-    thread (multi-threaded bundle adjustment changes from run to run).
+def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, seed: int, known_K: bool, pooling: bool = False) -> tuple[Any, Any, Any]:
+    """COLMAP's options: matching and mapping single-threaded (reproducible), guided matching and low inlier minimums.
 
     Guided matching (matches re-searched along the epipolar lines of the
     first two-view geometry) with the minimums lowered (10 matches, 25 inliers
@@ -149,11 +143,9 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     ext.num_threads = 1  # :func:`_map` raises it once the images are in the database (their ids then no longer depend on it)
     ext.use_gpu = False
     match = pycolmap.FeatureMatchingOptions()
-    match.num_threads = 1  # :func:`_map` sets the count; the seeded RANSAC below makes the matches independent of it
+    match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
     match.use_gpu = False
     match.guided_matching = True
-    verify = pycolmap.TwoViewGeometryOptions()
-    verify.ransac.random_seed = int(seed) % (2**31 - 1)  # seeded per pair, not drawn from a per-thread generator
     inc = pycolmap.IncrementalPipelineOptions()
     inc.num_threads = 1  # multi-threaded bundle adjustment changes the result from run to run
     inc.random_seed = seed
@@ -172,7 +164,7 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
         inc.ba_refine_focal_length = False
         inc.ba_refine_principal_point = False
         inc.ba_refine_extra_params = False
-    return ext, match, verify, inc
+    return ext, match, inc
 
 
 def run_sfm(
@@ -207,9 +199,8 @@ def run_sfm(
         a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
         sweep at 1.2 m).
     seed : int
-        Seeds COLMAP: every two-view RANSAC of the matching, and the mapper
-        (which runs on one thread), so the same images give the same
-        reconstruction.
+        Seeds COLMAP's random number generator; matching and mapping run on
+        one thread, so the same images give the same reconstruction.
     attempts : int
         Incremental mapping is randomised: when a view
         stays unregistered it is rerun from the same matches with the next
@@ -224,12 +215,12 @@ def run_sfm(
         ``docs/results.md``, round 6). Use ``"SIMPLE_RADIAL"``, ``"RADIAL"`` or
         ``"OPENCV"`` for photos with visible lens distortion.
     num_threads : int
-        Threads for SIFT feature extraction and matching. The images enter
-        COLMAP's database in name order before any feature is extracted, so
-        their ids and the features (computed per image) do not depend on it,
-        and each pair's two-view RANSAC is seeded on its own: the
-        reconstruction is the same for any count. Mapping runs on one thread,
-        since its bundle adjustment changes with the thread count.
+        Threads for SIFT feature extraction. The images enter COLMAP's
+        database in name order before any feature is extracted, so their ids
+        and the features (computed per image) do not depend on it: the
+        reconstruction is the same for any count. Matching and mapping run on
+        one thread, since their RANSAC and bundle adjustment change with the
+        thread count.
 
     Returns
     -------
@@ -242,8 +233,8 @@ def run_sfm(
     plain SIFT as well, and the model with more views is kept (pooled
     descriptors tell the squares of a checkered table apart; plain ones
     register more on weakly textured views). Exhaustive matching: O(N^2)
-    image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (mapping
-    runs single-threaded for reproducibility; ``bench_rgb_only.py``).
+    image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (matching
+    and mapping run single-threaded for reproducibility; ``bench_rgb_only.py``).
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -311,7 +302,7 @@ def _map(
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
-    ext, match, verify, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
+    ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
     tag = "dsp" if pooling else "sift"
     reader = pycolmap.ImageReaderOptions()
     mode = pycolmap.CameraMode.SINGLE
@@ -336,8 +327,7 @@ def _map(
     pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
     if known and mode == pycolmap.CameraMode.PER_IMAGE:
         _set_per_image_cameras(pycolmap, db, names, Ks)
-    match.num_threads = max(1, int(num_threads))
-    pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+    pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
     best = None
     for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
         out = root / f"sparse-{tag}{attempt}"
@@ -502,8 +492,8 @@ class SfmLifter(Backend):
     peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
     num_threads : int
-        Threads for SIFT feature extraction and matching (:func:`run_sfm`; the
-        result does not depend on it). Mapping runs on one thread so that the
+        Threads for SIFT feature extraction (:func:`run_sfm`; the result does
+        not depend on it). Matching and mapping run on one thread so that the
         same photos give the same result.
     stereo : bool
         Dense stereo where a neighbour is close (:func:`graphseg.backends.lifters.stereo.stereo_depths`).
@@ -557,7 +547,7 @@ class SfmLifter(Backend):
         model_config = ConfigDict(extra="forbid")
         peak_threshold: float = Field(0.002, gt=0, description="SIFT detector threshold (COLMAP's default 0.0067 finds too few keypoints on renders)")
         min_tri_angle: float = Field(2.0, gt=0, description="degrees: the initial pair's triangulation angle (new points: a quarter of it)")
-        num_threads: int = Field(2, ge=1, description="threads for SIFT feature extraction and matching (the result does not depend on it; mapping runs on one thread)")
+        num_threads: int = Field(2, ge=1, description="threads for SIFT feature extraction (the result does not depend on it; matching and mapping run on one thread)")
         stereo: bool = Field(True, description="dense stereo where a neighbour view is close")
         max_pair_angle: float = Field(45.0, gt=0, description="degrees: neighbours whose viewing directions differ more are not used for stereo")
         max_neighbours: int = Field(4, ge=1, description="stereo pairs fused per view")
