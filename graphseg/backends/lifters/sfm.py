@@ -167,6 +167,16 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     return ext, match, inc
 
 
+def _verification_options(pycolmap: Any, ransac_seed: int | None) -> Any:
+    """COLMAP's two-view verification options; ``ransac_seed`` seeds every pair's RANSAC (None: COLMAP's default, -1)."""
+    verify = pycolmap.TwoViewGeometryOptions()
+    if ransac_seed is not None:
+        if not 0 <= int(ransac_seed) < 2**31 - 1:
+            raise ValueError(f"expected ransac_seed in 0..{2**31 - 2} (got {ransac_seed})")
+        verify.ransac.random_seed = int(ransac_seed)
+    return verify
+
+
 def run_sfm(
     images: list[np.ndarray],
     K: list[np.ndarray] | None = None,
@@ -177,6 +187,7 @@ def run_sfm(
     attempts: int = 3,
     camera_model: str,
     num_threads: int = 1,
+    ransac_seed: int | None = None,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -199,8 +210,12 @@ def run_sfm(
         a quarter of it (COLMAP's defaults 16 and 1.5 build nothing on a 2 cm
         sweep at 1.2 m).
     seed : int
-        Seeds COLMAP's random number generator; matching and mapping run on
-        one thread, so the same images give the same reconstruction.
+        Seeds COLMAP's incremental mapper (``random_seed``; it runs on one
+        thread). The two-view RANSAC of the matching draws from the generator
+        of COLMAP's one matching thread, which COLMAP seeds with its own fixed
+        default: the same images give the same reconstruction, but ``seed``
+        does not change those draws (``ransac_seed`` does; ``docs/results.md``,
+        round 21).
     attempts : int
         Incremental mapping is randomised: when a view
         stays unregistered it is rerun from the same matches with the next
@@ -218,9 +233,19 @@ def run_sfm(
         Threads for SIFT feature extraction. The images enter COLMAP's
         database in name order before any feature is extracted, so their ids
         and the features (computed per image) do not depend on it: the
-        reconstruction is the same for any count. Matching and mapping run on
-        one thread, since their RANSAC and bundle adjustment change with the
-        thread count.
+        reconstruction is the same for any count. Matching runs on one thread
+        unless ``ransac_seed`` is given, and mapping always does (its bundle
+        adjustment changes with the thread count).
+    ransac_seed : int, optional
+        Seed every two-view RANSAC of the matching with this value
+        (COLMAP's ``RANSACOptions.random_seed``): the verified matches of a
+        pair then depend neither on which thread matched it nor on what was
+        drawn before, so matching runs on ``num_threads`` threads with the
+        same result, and different values give different draws. None (the
+        default) keeps COLMAP's own fixed seed on one matching thread. On few
+        views with few matches the draw changes the model (3 weakly textured
+        views gave 34, 28 or 6 triangulated points for three draws;
+        ``docs/results.md``, round 21).
 
     Returns
     -------
@@ -242,7 +267,7 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed)
     finally:
         pycolmap.logging.minloglevel = level
 
@@ -258,6 +283,7 @@ def _run_sfm(
     attempts: int,
     camera_model: str,
     num_threads: int = 1,
+    ransac_seed: int | None = None,
 ) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
@@ -274,7 +300,9 @@ def _run_sfm(
         # with more registered views is kept (ties keep the pooled one).
         best = None
         for pooling in (True, False):
-            rec = _map(pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling, num_threads=num_threads)
+            rec = _map(
+                pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling, num_threads=num_threads, ransac_seed=ransac_seed
+            )
             if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                 best = rec
             if best is not None and best.num_reg_images() == n:
@@ -297,11 +325,12 @@ def _map(
     camera_model: str,
     pooling: bool,
     num_threads: int = 1,
+    ransac_seed: int | None = None,
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
-        pycolmap.set_random_seed(seed)  # COLMAP's RANSAC draws from a process-wide generator
+        pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
     tag = "dsp" if pooling else "sift"
     reader = pycolmap.ImageReaderOptions()
@@ -327,7 +356,10 @@ def _map(
     pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
     if known and mode == pycolmap.CameraMode.PER_IMAGE:
         _set_per_image_cameras(pycolmap, db, names, Ks)
-    pycolmap.match_exhaustive(db, matching_options=match, device=pycolmap.Device.cpu)
+    verify = _verification_options(pycolmap, ransac_seed)
+    if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
+        match.num_threads = max(1, int(num_threads))
+    pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
     best = None
     for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
         out = root / f"sparse-{tag}{attempt}"
@@ -492,9 +524,12 @@ class SfmLifter(Backend):
     peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
     num_threads : int
-        Threads for SIFT feature extraction (:func:`run_sfm`; the result does
-        not depend on it). Matching and mapping run on one thread so that the
-        same photos give the same result.
+        Threads for SIFT feature extraction, and for matching when
+        ``ransac_seed`` is set (:func:`run_sfm`; the result does not depend on
+        it). Mapping runs on one thread so that the same photos give the same result.
+    ransac_seed : int or None
+        Seeds every two-view RANSAC of the matching (:func:`run_sfm`); None
+        keeps COLMAP's fixed default on one matching thread.
     stereo : bool
         Dense stereo where a neighbour is close (:func:`graphseg.backends.lifters.stereo.stereo_depths`).
     max_pair_angle : float
@@ -538,7 +573,7 @@ class SfmLifter(Backend):
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     seed : int
-        COLMAP's random seed (None: 0).
+        Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
 
     name = "sfm"
@@ -554,7 +589,10 @@ class SfmLifter(Backend):
         sparse_radius: int = Field(1, ge=0, description="a triangulated point fills a (2 r + 1)^2 pixel block")
         fill: bool | Literal["planes"] = Field("planes", description="'planes': one plane per colour region; True: fill holes only; False: no filling")
         fill_confidence: float = Field(0.25, ge=0, description="confidence of pixels only the fill gave a point")
-        seed: int | None = Field(0, ge=0, description="COLMAP's random seed (None: 0)")
+        seed: int | None = Field(0, ge=0, description="seed of COLMAP's mapper (None: 0); the matching's two-view RANSAC keeps COLMAP's fixed default seed unless ransac_seed is set")
+        ransac_seed: int | None = Field(
+            None, ge=0, lt=2**31 - 1, description="seed every two-view RANSAC of the matching with this (None: COLMAP's fixed default, matching on one thread); with a seed, matching runs on num_threads threads with the same result"
+        )
         consistency: bool = Field(False, description="check every stereo point against the neighbour views")
         transfer: bool = Field(True, description="give a pixel its own stereo left empty the point another view measured there")
         transfer_min_confidence: float = Field(0.5, ge=0, description="stereo confidence a point needs to be transferred")
@@ -577,7 +615,14 @@ class SfmLifter(Backend):
             'SIMPLE_PINHOLE'
             """
             seed = 0 if self.seed is None else int(self.seed)
-            return {"peak_threshold": self.peak_threshold, "min_tri_angle": self.min_tri_angle, "seed": seed, "camera_model": self.camera_model, "num_threads": self.num_threads}
+            return {
+                "peak_threshold": self.peak_threshold,
+                "min_tri_angle": self.min_tri_angle,
+                "seed": seed,
+                "camera_model": self.camera_model,
+                "num_threads": self.num_threads,
+                "ransac_seed": self.ransac_seed,
+            }
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
         """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
