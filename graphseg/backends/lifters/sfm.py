@@ -244,7 +244,7 @@ def run_sfm(
         same result, and different values give different draws. None (the
         default) keeps COLMAP's own fixed seed on one matching thread. On few
         views with few matches the draw changes the model (3 weakly textured
-        views gave 34, 28 or 6 triangulated points for three draws;
+        views gave 34, 28, 6 or 13 triangulated points for four draws;
         ``docs/results.md``, round 21).
 
     Returns
