@@ -5,7 +5,7 @@ skipped when absent) and one synthetic pybullet scene (seed 103, 10 views,
 640x480; skipped without the ``sim`` extra). The inputs (``rgbd`` lift,
 ``geometric`` masks, ``reprojection`` matches) are computed once per scene;
 only ``segment()`` is timed, best of ``--repeat`` runs, with its own step
-timings (background, mask composition, each stage, split, outputs) from the best run.
+timings (background, mask composition, each stage, split, refine, rim growing and trimming, outputs) from the best run.
 Peak memory is tracemalloc's peak over one more run (numpy included; the
 inputs themselves are not counted). IoU is printed as a check (the YCB rows are
 the scenes of ``bench_ablation.py``'s 10-view rows). Run it on an idle machine:
@@ -21,6 +21,7 @@ objects, whose time is the ``split`` column; ``"rgbd without merge"``, the
 split alone; ``"rgbd, one split grid"``, the split without its fine 5 mm pass;
 ``"rgbd, no mask snap"``, rgbd without giving the pixels the voxel border cut off a mask back;
 ``"rgbd, no mask join"``, rgbd without joining the pieces its masks hold together (``split.mask_join``);
+``"rgbd + rim growing"``, rgbd with the unlabelled pixels at each object's rim given to it up to the colour edge (``grow``, the ``grow`` column);
 ``"rgbd + borders drawn again"``, rgbd with the minimum cut that draws each split border again, ``split.settle_band`` 3).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
@@ -43,7 +44,7 @@ from graphseg.metrics import evaluate  # noqa: E402
 from graphseg.pipeline import compute_masks, compute_matches, lift  # noqa: E402
 
 YCBV = Path(__file__).resolve().parents[2] / "shared" / "data" / "ycbv"
-STEPS = ("background", "compose", "stage0", "stage1", "split", "refine", "outputs")
+STEPS = ("background", "compose", "stage0", "stage1", "split", "refine", "grow", "trim", "outputs")
 
 #: Named configurations other than the presets.
 VARIANTS = {
@@ -54,6 +55,7 @@ VARIANTS = {
     "rgbd, one split grid": lambda: Config.preset("rgbd", split={"fine_voxel_size": None}),
     "rgbd, no mask snap": lambda: Config.preset("rgbd", split={"snap_share": None}),
     "rgbd, no mask join": lambda: Config.preset("rgbd", split={"mask_join": None}),
+    "rgbd + rim growing": lambda: Config.preset("rgbd", grow={"enabled": True}),
     "rgbd + borders drawn again": lambda: Config.preset("rgbd", split={"settle_band": 3}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }

@@ -242,7 +242,7 @@ def test_lifted_points_get_their_own_criterion_options():
     assert sfm.objects == cfg.objects  # no object overrides by default
     three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
     assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
-    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "split": {}, "backend_options": {}, "trim": {}})
+    off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "split": {}, "backend_options": {}, "trim": {}, "grow": {}})
     assert off.for_lifter("sfm") is off
     assert cfg.split.merge_ncut == 0.022 and sfm.split.merge_ncut is None  # estimated points never join objects
     assert cfg.split.max_ncut == 0.012 and sfm.split.max_ncut == 0.025  # estimated points split at dearer cuts

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..scene import SceneError, View
 
-__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "view_rgb", "gray", "to_lab"]
+__all__ = ["IMAGENET_MEAN", "IMAGENET_STD", "view_rgb", "gray", "to_lab", "checked_rgb8"]
 
 #: Per-channel RGB mean and standard deviation (0..1 scale) of ImageNet, as the models were trained.
 IMAGENET_MEAN = (0.485, 0.456, 0.406)
@@ -41,6 +41,25 @@ def view_rgb(view: View) -> np.ndarray:
     if rgb.dtype != np.uint8:
         rgb = np.clip(rgb * (255.0 if rgb.max() <= 1.0 else 1.0), 0, 255).astype(np.uint8)
     return rgb
+
+
+def checked_rgb8(image: np.ndarray, shape: tuple[int, ...], where: str) -> np.ndarray:
+    """``image`` as an array, checked to be uint8 ``[H, W, 3]`` with ``(H, W) == shape``; a ValueError names ``where`` otherwise.
+
+    The label-image steps after segmentation (:func:`graphseg.method.trim.trim_rims`,
+    :func:`graphseg.method.grow.grow_rims`) read colours with it. O(1).
+
+    Examples
+    --------
+    >>> checked_rgb8(np.zeros((2, 3, 3), np.uint8), (2, 3), "view 0").shape
+    (2, 3, 3)
+    """
+    im = np.asarray(image)
+    if im.shape[:2] != tuple(shape) or im.ndim != 3 or im.shape[2] != 3:
+        raise ValueError(f"{where}: expected an image of shape [{shape[0]}, {shape[1]}, 3] (got {list(im.shape)})")
+    if im.dtype != np.uint8:
+        raise ValueError(f"{where}: expected a uint8 image (got {im.dtype})")
+    return im
 
 
 def gray(rgb: np.ndarray) -> np.ndarray:

@@ -43,6 +43,7 @@ from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
+from .grow import grow_rims
 from .join import join_by_masks, join_objects
 from .masks import compose_masks, majority_objects, paint_masks, snap_to_masks
 from .refine import project_to_view, refine_labels
@@ -861,6 +862,8 @@ def finish_segmentation(
     its masks are painted into label images, the minimum-support rules
     (:func:`apply_min_support`, ``config.objects``) drop or merge objects,
     the optional refinement (``config.refine``) relabels pixels, the optional
+    rim growing (``config.grow``) gives an object the background pixels at its
+    rim up to the nearest colour edge, the optional
     rim trimming (``config.trim``) unlabels border pixels that look like the
     background beside them, every node of
     every stage graph gets its final object id (node column ``object``; 0 =
@@ -885,13 +888,13 @@ def finish_segmentation(
     background : list of bool ``[H, W]``
         The background class per view.
     config : Config
-        ``objects``, ``split``, ``refine``, ``trim`` and ``output`` are read.
+        ``objects``, ``split``, ``refine``, ``grow``, ``trim`` and ``output`` are read.
     info : mapping, optional, keyword-only
         The run's own entries of ``Result.info`` (``background``, ``masks``,
         ``stages``, ``timings``, ``num_matches``, ``pairs``), kept in their
-        order; ``support``, ``split``, ``refine``, ``trim`` and ``warnings`` are
+        order; ``support``, ``split``, ``refine``, ``trim``, ``grow`` and ``warnings`` are
         added, and ``timings`` (a copy) gets ``split`` (split and merge, when
-        enabled), ``refine`` and ``trim`` (when enabled), ``outputs`` and ``total``. ``split`` (None
+        enabled), ``refine``, ``grow`` and ``trim`` (when enabled), ``outputs`` and ``total``. ``split`` (None
         when disabled) holds :func:`~graphseg.method.split.split_objects`'
         ``objects`` and ``first_new`` (ids before any merge), ``settled`` (voxels
         whose part :func:`~graphseg.method.split.settle_parts` changed, both passes;
@@ -1044,6 +1047,11 @@ def finish_segmentation(
             out_labels, points, cameras, confidence=[v.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
         )
         timings["refine"] = time.perf_counter() - t_refine
+    grow_info = None
+    if cfg.grow.enabled:  # before the trim, so that with both on the trim has the last word
+        t_grow = time.perf_counter()
+        out_labels, grow_info = grow_rims(out_labels, [v.rgb for v in views], band=cfg.grow.band, blur=cfg.grow.blur)
+        timings["grow"] = time.perf_counter() - t_grow
     trim_info = None
     if cfg.trim.enabled:
         t_trim = time.perf_counter()
@@ -1086,6 +1094,7 @@ def finish_segmentation(
             "split": split_info,
             "refine": refine_info,
             "trim": trim_info,
+            "grow": grow_info,
             "warnings": _degenerate_warnings(len(views), int(mem["node"].size), num_objects),
         },
     )

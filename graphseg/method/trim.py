@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ..backends.imaging import to_lab
+from ..backends.imaging import checked_rgb8, to_lab
 
 __all__ = ["trim_rims"]
 
@@ -90,11 +90,7 @@ def trim_rims(
             out.append(lab)
             per_view.append(0)
             continue
-        im = np.asarray(rgb)
-        if im.shape[:2] != lab.shape or im.ndim != 3 or im.shape[2] != 3:
-            raise ValueError(f"view {v}: expected an image of shape [{lab.shape[0]}, {lab.shape[1]}, 3] (got {list(im.shape)})")
-        if im.dtype != np.uint8:
-            raise ValueError(f"view {v}: expected a uint8 image (got {im.dtype})")
+        im = checked_rgb8(rgb, lab.shape, f"view {v}")
         obj = lab > 0
         if not obj.any() or obj.all():
             out.append(lab)
