@@ -17,7 +17,17 @@ Only unlabelled pixels are taken (and of those only the ones ``free``
 allows, when given). Labelled pixels never change, so a border between two
 objects is never moved. The seam of a gap between two objects is flooded
 from outside too, so a strip of table narrower than two rings is not
-swallowed. A strip between an object and the image's edge has no such seam.
+swallowed. Three consequences of the seeding:
+
+* a strip between an object and the image's edge has no seam: it is
+  flooded by the object up to its strongest edge;
+* an unlabelled hole inside one object that is no wider than about two
+  rings (no pixel of it farther than ``band`` from the object) has no
+  outside seed and is filled whole, whatever its colour; a wider hole keeps
+  its inside;
+* where two objects touch, the seam between them runs on outwards, so a
+  missed strip that crosses the junction keeps a notch of a few pixels
+  there.
 
 The mirror image, for estimated depth that runs over the silhouette, is
 :func:`graphseg.method.trim.trim_rims`. On estimated points both run, this
@@ -82,7 +92,7 @@ def grow_rims(
 
     Notes
     -----
-    Per view: two distance transforms, one Lab conversion and gradient over
+    Per view: three distance transforms, one Lab conversion and gradient over
     the bounding box of the ring, and one watershed over the ring and the
     objects' border pixels, O(H W) with a small constant (15-20 ms per view at
     640 x 480 on YCB-Video).

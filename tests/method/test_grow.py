@@ -40,14 +40,16 @@ def test_object_grows_exactly_to_its_colour_edge(short):
     assert info["grown"] == int((out[0][:, 12:12 + short] == 3).sum()) >= (short - 1) * lab.shape[0]
 
 
-def test_no_edge_in_the_band_leaves_the_line_pixel_and_never_passes_the_band():
-    """A uniform image: the object floods at most ``band`` pixels; no pixel farther than the band is taken."""
+def test_no_edge_in_the_band_keeps_part_of_the_ring_and_never_passes_the_band():
+    """A uniform image: the object and the outside meet somewhere in the ring; no pixel beyond the band is taken."""
     rgb = np.full((16, 30, 3), 90, np.uint8)
     lab = np.zeros((16, 30), np.int32)
     lab[:, 20:] = 1
-    out, _ = grow_rims([lab], [rgb], band=4, blur=0.0)
+    out, info = grow_rims([lab], [rgb], band=4, blur=0.0)
     np.testing.assert_array_equal(out[0][:, :16], 0)
     np.testing.assert_array_equal(out[0][:, 20:], 1)
+    assert (out[0][:, 16:20] == 0).any(1).all()  # every row keeps at least one ring pixel (the line or beyond)
+    assert 0 < info["grown"] < 4 * lab.shape[0]
 
 
 def test_correct_border_is_kept():
@@ -58,27 +60,31 @@ def test_correct_border_is_kept():
     assert info["grown"] == 0
 
 
-def test_labelled_pixels_never_change():
-    """Two objects whose seam is off the colour edge, and a negative id: no labelled pixel changes."""
+def test_labelled_and_negative_pixels_never_change():
+    """Two objects whose seam is off the colour edge, and negative ids inside the strip an object should take."""
     rgb = np.zeros((16, 16, 3), np.uint8)
     rgb[:, 8:] = 220
     lab = np.ones((16, 16), np.int32)
     lab[:, 6:] = 2
-    lab[0, 0] = -1
-    lab[:, 14:] = 0
-    out, _ = grow_rims([lab], [rgb], band=3)
-    np.testing.assert_array_equal(out[0][:, :14], lab[:, :14])
+    lab[:, 12:] = 0  # object 2 (bright, columns 8-15) is labelled only up to column 11
+    lab[3:6, 13] = -1
+    out, info = grow_rims([lab], [rgb], band=4)
+    np.testing.assert_array_equal(out[0][:, :12], lab[:, :12])  # the seam between 1 and 2 stays off the edge
+    np.testing.assert_array_equal(out[0][3:6, 13], -1)
+    assert info["grown"] > 0 and np.all(out[0][lab == 0] >= 0)
 
 
 def test_free_limits_what_is_taken():
-    """Pixels outside ``free`` keep their label (0), the others are grown as before."""
+    """Pixels outside ``free`` keep their label (0), the others are grown as without ``free``."""
     lab, rgb = _short_scene(short=3)
     free = np.ones(lab.shape, bool)
     free[:10] = False  # the top ten rows may not be taken
     out, info = grow_rims([lab], [rgb], free=[free], band=6)
+    full, _ = grow_rims([lab], [rgb], band=6)
     np.testing.assert_array_equal(out[0][:10], lab[:10])
-    np.testing.assert_array_equal(out[0][10:, 12:], 3)
-    assert info["grown"] == 3 * 10
+    np.testing.assert_array_equal(out[0][10:], full[0][10:])
+    np.testing.assert_array_equal(out[0][10:, 13:], 3)
+    assert info["grown"] == int((out[0] != lab).sum()) > 0
 
 
 def test_two_objects_each_take_their_own_rim():
@@ -93,6 +99,39 @@ def test_two_objects_each_take_their_own_rim():
     np.testing.assert_array_equal(out[0][:, 5:15], 1)
     np.testing.assert_array_equal(out[0][:, 25:35], 2)
     np.testing.assert_array_equal(out[0][:, 15:25], 0)
+
+
+def test_small_hole_is_filled_and_a_wide_hole_keeps_its_inside():
+    """Documented behaviour: a hole no wider than two rings has no outside seed; a wider one keeps its inside."""
+    rgb = np.full((30, 30, 3), 200, np.uint8)
+    rgb[11:19, 11:19] = 20
+    lab = np.zeros((30, 30), np.int32)
+    lab[5:25, 5:25] = 1
+    lab[11:19, 11:19] = 0
+    out, _ = grow_rims([lab], [rgb], band=6)
+    np.testing.assert_array_equal(out[0][11:19, 11:19], 1)
+    rgb = np.full((60, 60, 3), 200, np.uint8)
+    rgb[15:45, 15:45] = 20  # a dark hole 30 px wide, the object labelled 2 px short around it
+    lab = np.zeros((60, 60), np.int32)
+    lab[5:55, 5:55] = 1
+    lab[13:47, 13:47] = 0
+    out, _ = grow_rims([lab], [rgb], band=6)
+    np.testing.assert_array_equal(out[0][13:15, 20:40], 1)  # the object's own missed rim is taken
+    np.testing.assert_array_equal(out[0][18:42, 18:42], 0)  # the dark inside is not
+
+
+def test_touching_objects_leave_a_notch_at_their_junction():
+    """Documented behaviour: two touching objects, both short of a bright strip below them; the seam keeps a notch."""
+    rgb = np.full((20, 24, 3), 20, np.uint8)
+    rgb[:15] = 200  # both objects end at row 15; the table below is dark
+    lab = np.zeros((20, 24), np.int32)
+    lab[:12, :12] = 1
+    lab[:12, 12:] = 2
+    out, _ = grow_rims([lab], [rgb], band=5)
+    o = out[0]
+    np.testing.assert_array_equal(o[15:], 0)  # the dark table stays
+    assert (o[12:15, :9] == 1).all() and (o[12:15, 15:] == 2).all()
+    assert (o[12:15, 9:15] == 0).any()  # the notch under the junction
 
 
 def test_edge_cases_empty_full_and_missing_image():
@@ -143,7 +182,7 @@ def test_segment_grows_only_when_enabled():
     from graphseg.testing.scenes import two_boxes_scene
 
     scene, masks, matches = two_boxes_scene()
-    # masks one pixel short of each box, so there is a rim to grow into
+    # masks two pixels short of each box, so there is a rim to grow into
     from scipy import ndimage
 
     short = [[ndimage.binary_erosion(np.asarray(m), iterations=2) for m in ms] for ms in masks]
@@ -153,9 +192,9 @@ def test_segment_grows_only_when_enabled():
     assert on.info["grow"]["grown"] > 0 and on.info["grow"]["grown"] == sum(on.info["grow"]["per_view"]) and "grow" in on.info["timings"]
     for a, b in zip(off.labels, on.labels):  # growing only labels unlabelled pixels
         assert np.all((b == a) | (a == 0))
-    gt_on = sum(int(((lab > 0) & (np.asarray(v.instances) > 0)).sum()) for lab, v in zip(on.labels, scene.views))
-    gt_off = sum(int(((lab > 0) & (np.asarray(v.instances) > 0)).sum()) for lab, v in zip(off.labels, scene.views))
-    assert gt_on > gt_off  # the grown pixels are mostly the boxes' own
+    grown = [(b != a) for a, b in zip(off.labels, on.labels)]
+    on_boxes = sum(int((g & (np.asarray(v.instances) > 0)).sum()) for g, v in zip(grown, scene.views))
+    assert on_boxes >= 0.9 * on.info["grow"]["grown"]  # the grown pixels are the boxes' own
     assert not Config.preset("rgbd").grow.enabled and not Config().grow.enabled
     # estimated points are grown (then trimmed) whatever the preset; measured depth only when asked
     assert Config().for_lifter("sfm").grow.enabled and not Config().for_lifter("rgbd").grow.enabled
