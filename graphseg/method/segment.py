@@ -862,7 +862,7 @@ def finish_segmentation(
     its masks are painted into label images, the minimum-support rules
     (:func:`apply_min_support`, ``config.objects``) drop or merge objects,
     the optional refinement (``config.refine``) relabels pixels, the optional
-    rim growing (``config.grow``) gives an object the background pixels at its
+    rim growing (``config.grow``) gives an object the unlabelled pixels at its
     rim up to the nearest colour edge, the optional
     rim trimming (``config.trim``) unlabels border pixels that look like the
     background beside them, every node of

@@ -74,19 +74,6 @@ def test_labelled_and_negative_pixels_never_change():
     assert info["grown"] > 0 and np.all(out[0][lab == 0] >= 0)
 
 
-def test_free_limits_what_is_taken():
-    """Pixels outside ``free`` keep their label (0), the others are grown as without ``free``."""
-    lab, rgb = _short_scene(short=3)
-    free = np.ones(lab.shape, bool)
-    free[:10] = False  # the top ten rows may not be taken
-    out, info = grow_rims([lab], [rgb], free=[free], band=6)
-    full, _ = grow_rims([lab], [rgb], band=6)
-    np.testing.assert_array_equal(out[0][:10], lab[:10])
-    np.testing.assert_array_equal(out[0][10:], full[0][10:])
-    np.testing.assert_array_equal(out[0][10:, 13:], 3)
-    assert info["grown"] == int((out[0] != lab).sum()) > 0
-
-
 def test_two_objects_each_take_their_own_rim():
     """Two objects of different colours, both labelled short: each takes its own columns, up to its own edge."""
     rgb = np.full((12, 40, 3), 20, np.uint8)
@@ -151,10 +138,6 @@ def test_bad_inputs_name_the_field():
     lab, rgb = _short_scene()
     with pytest.raises(ValueError, match="one image per label image"):
         grow_rims([lab], [])
-    with pytest.raises(ValueError, match="one free mask per label image"):
-        grow_rims([lab], [rgb], free=[])
-    with pytest.raises(ValueError, match=r"view 0: expected a free mask of shape \[20, 24\]"):
-        grow_rims([lab], [rgb], free=[np.ones((3, 3), bool)])
     with pytest.raises(ValueError, match="view 0: expected an image of shape"):
         grow_rims([lab], [rgb[:, :5]])
     with pytest.raises(ValueError, match="view 0: expected a uint8 image"):
