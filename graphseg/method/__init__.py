@@ -1,11 +1,11 @@
 """The GraphSeg method on in-memory arrays: background, mask composition, pairs, segment(), 3D split of objects, joining by border, per-pixel refinement, rim growing and trimming."""
 
 from .background import BackgroundInfo, background_masks, fit_table_plane
+from .grow import grow_rims
 from .join import join_objects
 from .masks import compose_masks
 from .pairs import pose_distance, scene_scale, select_pairs
 from .refine import project_to_view, refine_labels
-from .grow import grow_rims
 from .segment import segment
 from .split import merge_objects, split_objects
 from .trim import trim_rims
