@@ -7,7 +7,7 @@ pytest.importorskip("pycolmap")
 pytest.importorskip("pybullet")
 
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
-from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, run_sfm  # noqa: E402
+from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, focal_check_warning, run_sfm  # noqa: E402
 from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
@@ -199,8 +199,112 @@ def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled,
     monkeypatch.setattr(sfm, "_map", fake_map)
     monkeypatch.setattr(sfm, "_convert", lambda rec, names: rec)
     images = [np.zeros((8, 8, 3), np.uint8)] * 5
-    assert sfm.run_sfm(images, **sfm.SfmLifter.Options().run_sfm_kwargs()) is models[expected == "pooled"]
+    assert sfm.run_sfm(images, **sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs()) is models[expected == "pooled"]
     assert seen == calls
+
+
+class _FakeCamera:
+    def __init__(self, f):
+        self.f = f
+
+    def calibration_matrix(self):
+        return np.array([[self.f, 0, 40.0], [0, self.f, 30.0], [0, 0, 1]])
+
+
+class _FakeImage:
+    camera_id = 1
+    has_pose = True
+
+
+class _FakeCalibrated(_FakeModel):
+    """A model of ``k`` views whose shared camera has focal length ``f`` (80-pixel-wide images)."""
+
+    def __init__(self, k, f):
+        super().__init__(k)
+        self.cameras = {1: _FakeCamera(f)}
+        self.images = {1: _FakeImage()}
+
+
+# 80 px wide: focal 57 -> 70 degrees, 200 -> 22.6 degrees, 20 -> 127 degrees
+@pytest.mark.parametrize(
+    "focals, focal, kept, draws",
+    [
+        ([57.0], 57.0, "first", [None]),  # plausible: nothing else runs
+        ([200.0, 57.0], 57.0, "redraw 1", [None, 1]),
+        ([200.0, 20.0, 60.0], 60.0, "redraw 2", [None, 1, 2]),
+        ([200.0, 20.0, 250.0], 96.0, "prior", [None, 1, 2, None]),  # no draw plausible: the prior (1.2 x 80)
+    ],
+)
+def test_implausible_focal_length_redraws_then_holds_the_prior(monkeypatch, focals, focal, kept, draws):
+    """Issue 20: a focal length outside ``fov_range`` means self-calibration failed; the matching
+    is drawn again with the next RANSAC seeds, and failing those the focal length is held at
+    COLMAP's prior."""
+    from graphseg.backends.lifters import sfm
+
+    seen = []
+
+    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", **kwargs):
+        seen.append((ransac_seed, known, tag))
+        if known:  # held at the prior
+            return _FakeCalibrated(5, float(K[0][0, 0]))
+        return _FakeCalibrated(5, focals[len({t for _, k, t in seen if not k}) - 1])
+
+    monkeypatch.setattr(sfm, "_map", fake_map)
+    monkeypatch.setattr(sfm, "_convert", lambda rec, names: sfm.SfmReconstruction(np.ones(5, bool), [rec.cameras[1].calibration_matrix()] * 5, [None] * 5, [None] * 5, np.zeros((0, 3)), []))
+    images = [np.zeros((60, 80, 3), np.uint8)] * 5
+    rec = sfm.run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())
+    assert [d for d, _, _ in seen] == draws
+    assert rec.K[0][0, 0] == focal
+    check = rec.info["focal_check"]
+    assert check["kept"] == kept and check["range"] == [35.0, 110.0]
+    assert len(check["fov"]) == min(len(focals), 3)
+    line = focal_check_warning(check)
+    assert (line is None) == (kept == "first")
+    if line:
+        assert line.startswith(f"structure from motion: the focal length implied a {check['fov'][0]:.1f} degree field of view, outside 35-110")
+        assert ("held at 1.2 x" in line) == (kept == "prior")
+
+
+def test_focal_check_needs_no_redraw_with_known_intrinsics_or_when_off(monkeypatch):
+    from graphseg.backends.lifters import sfm
+
+    seen = []
+
+    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", **kwargs):
+        seen.append(known)
+        return _FakeCalibrated(3, 200.0)  # 22.6 degrees: implausible
+
+    monkeypatch.setattr(sfm, "_map", fake_map)
+    monkeypatch.setattr(sfm, "_convert", lambda rec, names: sfm.SfmReconstruction(np.ones(3, bool), [None] * 3, [None] * 3, [None] * 3, np.zeros((0, 3)), []))
+    images = [np.zeros((60, 80, 3), np.uint8)] * 3
+    K = np.array([[200.0, 0, 40], [0, 200, 30], [0, 0, 1]])
+    assert "focal_check" not in sfm.run_sfm(images, [K] * 3, **SfmLifter.Options().run_sfm_kwargs()).info  # a telephoto K is the user's
+    assert "focal_check" not in sfm.run_sfm(images, **SfmLifter.Options(fov_range=None).run_sfm_kwargs()).info
+    assert seen == [True, False]
+
+
+@pytest.mark.parametrize("bad", [(0.0, 90.0), (90.0, 40.0), (30.0, 180.0)])
+def test_fov_range_is_validated(bad):
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match="fov_range"):
+        SfmLifter.Options(fov_range=bad)
+
+
+def test_focal_length_held_at_the_prior_on_real_photos(arc_scene):
+    """An impossible range sends a real reconstruction to the prior: every view registers with the
+    focal length held at 1.2 x the larger side, and the lifter says so in one warning line."""
+    lifter = SfmLifter(fov_range=(1.0, 2.0), redraws=1, stereo=False, fill=False)
+    photos = rgb_only(arc_scene, keep_intrinsics=False)
+    rec, _ = lifter.reconstruct(photos)
+    check = rec.info["focal_check"]
+    assert check["kept"] == "prior" and len(check["fov"]) == 2
+    assert all(abs(f - 63.7) < 2 for f in check["fov"])  # both draws found the true 63.7 degrees (focal 257 of 320 px)
+    assert rec.registered.all()
+    assert all(k[0, 0] == 384.0 and k[1, 1] == 384.0 for k in rec.K)
+    lifted = lifter(photos)
+    assert lifted.meta["sfm"]["focal_check"] == check
+    assert [w for w in lifted.meta["warnings"] if "focal length" in w] == [focal_check_warning(check)]
 
 
 def test_lifter_metric_with_known_poses(arc_scene):

@@ -42,7 +42,18 @@ from ...scene import Scene, SceneError
 from ..options import Backend
 from .align import NOMINAL_WORKING_DISTANCE, umeyama
 
-__all__ = ["SfmLifter", "SfmReconstruction", "run_sfm", "NOMINAL_DISTANCE", "CAMERA_MODELS", "not_registered_message"]
+__all__ = [
+    "SfmLifter",
+    "SfmReconstruction",
+    "run_sfm",
+    "NOMINAL_DISTANCE",
+    "CAMERA_MODELS",
+    "not_registered_message",
+    "horizontal_fov",
+    "focal_plausible",
+    "prior_intrinsics",
+    "focal_check_warning",
+]
 
 #: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
@@ -188,6 +199,8 @@ def run_sfm(
     camera_model: str,
     num_threads: int = 1,
     ransac_seed: int | None = None,
+    fov_range: tuple[float, float] | None = None,
+    redraws: int = 0,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -246,11 +259,25 @@ def run_sfm(
         views with few matches the draw changes the model (3 weakly textured
         views gave 34, 28, 6 or 13 triangulated points for four draws;
         ``docs/results.md``, round 21).
+    fov_range : (float, float), optional
+        Horizontal fields of view (degrees) that an estimated focal length may
+        imply (only without ``K``). Outside it, self-calibration is taken to
+        have failed (:func:`focal_plausible`): the matching is drawn again with
+        ``redraws`` other RANSAC seeds, and the first model whose focal length
+        is plausible is kept; when none is, the focal length is held at
+        COLMAP's prior (1.2 x the larger side, :func:`prior_intrinsics`) and
+        the mapping runs again. None: no check.
+    redraws : int
+        RANSAC seeds tried after an implausible focal length: ``ransac_seed``
+        (0 when None) plus 1, 2, ... ``redraws``.
 
     Returns
     -------
     SfmReconstruction
         The largest model; views it does not contain are marked unregistered.
+        With ``fov_range``, ``info["focal_check"]`` records the field of view
+        of every draw tried and which model was kept (``"kept"``: ``"first"``,
+        ``"redraw k"`` or ``"prior"``).
 
     Notes
     -----
@@ -267,9 +294,56 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed, fov_range, redraws)
     finally:
         pycolmap.logging.minloglevel = level
+
+
+def horizontal_fov(K: np.ndarray, width: int) -> float:
+    """The horizontal field of view (degrees) of intrinsics ``K`` ``[3, 3]`` for an image ``width`` pixels wide.
+
+    Examples
+    --------
+    >>> round(horizontal_fov(np.array([[320.0, 0, 320], [0, 320, 240], [0, 0, 1]]), 640), 1)
+    90.0
+    """
+    return float(np.degrees(2.0 * np.arctan2(0.5 * width, float(np.asarray(K)[0, 0]))))
+
+
+def focal_plausible(K: np.ndarray, width: int, fov_range: tuple[float, float]) -> bool:
+    """Whether ``K`` implies a horizontal field of view within ``fov_range`` (degrees, inclusive).
+
+    Self-calibration from a few views on a narrow arc constrains the focal
+    length poorly: bundle adjustment can drift to a focal length two or three
+    times too long (or too short), with poses many degrees wrong and a
+    reprojection error as low as a right model's (``docs/results.md``, rounds
+    18, 21 and 23). The range is a prior on cameras, not on scenes: 35-110
+    degrees (the default of :class:`SfmLifter`) holds phone main cameras,
+    webcams, wrist and RGB-D colour cameras (about 55-90 degrees), and leaves out
+    telephoto lenses, which need ``K`` (or a wider ``fov_range``).
+
+    Examples
+    --------
+    >>> K = np.array([[1200.0, 0, 320], [0, 1200, 240], [0, 0, 1]])     # 29.9 degrees
+    >>> focal_plausible(K, 640, (35.0, 110.0)), focal_plausible(K, 640, (20.0, 110.0))
+    (False, True)
+    """
+    lo, hi = fov_range
+    return bool(lo <= horizontal_fov(K, width) <= hi)
+
+
+def prior_intrinsics(width: int, height: int) -> np.ndarray:
+    """COLMAP's starting intrinsics for an unknown camera (graphseg convention: pixel centres at integers).
+
+    Focal length 1.2 x the larger side, principal point at the image centre.
+
+    Examples
+    --------
+    >>> prior_intrinsics(640, 480)[0].tolist()
+    [768.0, 0.0, 319.5]
+    """
+    f = 1.2 * max(width, height)
+    return np.array([[f, 0.0, (width - 1) / 2.0], [0.0, f, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
 
 
 def _run_sfm(
@@ -284,32 +358,96 @@ def _run_sfm(
     camera_model: str,
     num_threads: int = 1,
     ransac_seed: int | None = None,
+    fov_range: tuple[float, float] | None = None,
+    redraws: int = 0,
 ) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     names = [f"{i:04d}.png" for i in range(n)]
+    h, w = images[0].shape[:2]
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
         (root / "images").mkdir()
         for name, img in zip(names, images):
             cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
-        # Domain-size pooling first: its descriptors tell the squares of a checkered
-        # table apart where plain SIFT's match the wrong square and give a wrong model
-        # (docs/results.md, round 5). On weakly textured views it finds fewer matches
-        # and can leave views unregistered; then plain SIFT runs too and the model
-        # with more registered views is kept (ties keep the pooled one).
-        best = None
-        for pooling in (True, False):
-            rec = _map(
-                pycolmap, root, names, K, known, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling, num_threads=num_threads, ransac_seed=ransac_seed
-            )
-            if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
-                best = rec
-            if best is not None and best.num_reg_images() == n:
-                break
+
+        def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, known_d: bool) -> Any:
+            # Domain-size pooling first: its descriptors tell the squares of a checkered
+            # table apart where plain SIFT's match the wrong square and give a wrong model
+            # (docs/results.md, round 5). On weakly textured views it finds fewer matches
+            # and can leave views unregistered; then plain SIFT runs too and the model
+            # with more registered views is kept (ties keep the pooled one).
+            best = None
+            for pooling in (True, False):
+                rec = _map(
+                    pycolmap, root, names, Kd, known_d, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling,
+                    num_threads=num_threads, ransac_seed=draw, tag=tag,
+                )
+                if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
+                    best = rec
+                if best is not None and best.num_reg_images() == n:
+                    break
+            return best
+
+        best = model(ransac_seed, "", K, known)
+        check: dict[str, Any] | None = None
+        if fov_range is not None and not known and best is not None:
+            fovs = [round(horizontal_fov(_model_K(best), w), 2)]
+            kept = "first"
+            base = 0 if ransac_seed is None else int(ransac_seed)
+            k = 0
+            while not focal_plausible(_model_K(best), w, fov_range) and k < max(0, int(redraws)):
+                k += 1
+                again = model(base + k, f"-r{k}", None, False)
+                if again is None:
+                    fovs.append(float("nan"))
+                    continue
+                fovs.append(round(horizontal_fov(_model_K(again), w), 2))
+                if focal_plausible(_model_K(again), w, fov_range):
+                    best, kept = again, f"redraw {k}"
+            if kept == "first" and not focal_plausible(_model_K(best), w, fov_range):
+                prior = prior_intrinsics(w, h)
+                held = model(ransac_seed, "-prior", [prior] * n, True)
+                if held is not None:
+                    best, kept = held, "prior"
+            check = {"range": [float(fov_range[0]), float(fov_range[1])], "fov": fovs, "kept": kept}
         if best is None:
             return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
-        return _convert(best, names)
+        out = _convert(best, names)
+        if check is not None:
+            out.info["focal_check"] = check
+        return out
+
+
+def focal_check_warning(check: dict[str, Any] | None) -> str | None:
+    """The one warning line for a focal-length check of :func:`run_sfm` (None when the first model passed).
+
+    Examples
+    --------
+    >>> focal_check_warning({"range": [35.0, 110.0], "fov": [29.9, 61.0], "kept": "redraw 1"})
+    'structure from motion: the focal length implied a 29.9 degree field of view, outside 35-110; RANSAC redraw 1 gave 61.0 and was kept'
+    >>> focal_check_warning({"range": [35.0, 110.0], "fov": [61.0], "kept": "first"}) is None
+    True
+    """
+    if not check or check.get("kept") == "first" and len(check.get("fov", [])) <= 1:
+        return None
+    lo, hi = check["range"]
+    fov = check["fov"]
+    head = f"structure from motion: the focal length implied a {fov[0]:.1f} degree field of view, outside {lo:g}-{hi:g}"
+    kept = check["kept"]
+    if kept.startswith("redraw"):
+        k = int(kept.split()[1])
+        return f"{head}; RANSAC {kept} gave {fov[k]:.1f} and was kept"
+    tried = ", ".join(f"{f:.1f}" for f in fov[1:])
+    if kept == "prior":
+        return f"{head}" + (f" (redraws: {tried})" if tried else "") + "; the focal length was held at 1.2 x the larger image side; give the intrinsics (K) if they are known"
+    return f"{head}" + (f" (redraws: {tried})" if tried else "") + "; no model with a plausible focal length; give the intrinsics (K) if they are known"
+
+
+def _model_K(rec: Any) -> np.ndarray:
+    """The intrinsics ``[3, 3]`` of a COLMAP model's first registered camera (one camera is shared)."""
+    cam = next(rec.cameras[img.camera_id] for img in rec.images.values() if img.has_pose)
+    return np.asarray(cam.calibration_matrix(), np.float64)
 
 
 def _map(
@@ -326,13 +464,17 @@ def _map(
     pooling: bool,
     num_threads: int = 1,
     ransac_seed: int | None = None,
+    tag: str = "",
 ) -> Any:
-    """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None."""
+    """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None.
+
+    ``tag`` names this draw's database and models (each draw matches in a database of its own).
+    """
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
-    tag = "dsp" if pooling else "sift"
+    tag = ("dsp" if pooling else "sift") + tag
     reader = pycolmap.ImageReaderOptions()
     mode = pycolmap.CameraMode.SINGLE
     Ks: list[np.ndarray] = []
@@ -598,6 +740,17 @@ class SfmLifter(Backend):
         transfer_min_confidence: float = Field(0.5, ge=0, description="stereo confidence a point needs to be transferred")
         transfer_color_distance: float | None = Field(30.0, gt=0, description="CIE Lab distance above which a transferred point is refused (None: no colour test)")
         camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
+        fov_range: tuple[float, float] | None = Field(
+            (35.0, 110.0), description="degrees: horizontal fields of view an estimated focal length may imply (outside: RANSAC redraws, then the focal length held at COLMAP's prior; None: no check)"
+        )
+        redraws: int = Field(2, ge=0, description="RANSAC redraws of the matching after an implausible focal length")
+
+        @field_validator("fov_range")
+        @classmethod
+        def _valid_range(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+            if v is not None and not 0 < v[0] < v[1] < 180:
+                raise ValueError(f"expected fov_range (low, high) with 0 < low < high < 180 degrees (got {list(v)})")
+            return v
 
         @field_validator("camera_model")
         @classmethod
@@ -622,6 +775,8 @@ class SfmLifter(Backend):
                 "camera_model": self.camera_model,
                 "num_threads": self.num_threads,
                 "ransac_seed": self.ransac_seed,
+                "fov_range": self.fov_range,
+                "redraws": self.redraws,
             }
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
@@ -648,6 +803,9 @@ class SfmLifter(Backend):
         if dropped:
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
+        note = focal_check_warning(rec.info.get("focal_check"))
+        if note:
+            lifted.meta["warnings"] = [*lifted.meta.get("warnings", []), note]
         if dropped:
             lifted.meta["dropped_views"] = dropped
             lifted.meta["warnings"] = [
@@ -701,6 +859,13 @@ class SfmLifter(Backend):
         meta = {
             **scene.meta,
             "scale": scale,
-            "sfm": {"registered": rec.num_registered, "views": len(scene), "points": int(len(rec.points)), "reprojection_error": rec.reprojection_error, **info},
+            "sfm": {
+                "registered": rec.num_registered,
+                "views": len(scene),
+                "points": int(len(rec.points)),
+                "reprojection_error": rec.reprojection_error,
+                **({"focal_check": rec.info["focal_check"]} if "focal_check" in rec.info else {}),
+                **info,
+            },
         }
         return Scene(views, dict(scene.objects), scene.name, meta)
