@@ -7,8 +7,7 @@ pytest.importorskip("pycolmap")
 pytest.importorskip("pybullet")
 
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
-from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, focal_check_warning, run_sfm  # noqa: E402
-from graphseg.scene import Scene, SceneError, View  # noqa: E402
+from graphseg.backends.lifters.sfm import SfmLifter, focal_check_warning, run_sfm  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
 
@@ -225,62 +224,95 @@ class _FakeCalibrated(_FakeModel):
         self.images = {1: _FakeImage()}
 
 
-# 80 px wide: focal 57 -> 70 degrees, 200 -> 22.6 degrees, 20 -> 127 degrees
-@pytest.mark.parametrize(
-    "focals, focal, kept, draws",
-    [
-        ([57.0], 57.0, "first", [None]),  # plausible: nothing else runs
-        ([200.0, 57.0], 57.0, "redraw 1", [None, 1]),
-        ([200.0, 20.0, 60.0], 60.0, "redraw 2", [None, 1, 2]),
-        ([200.0, 20.0, 250.0], 96.0, "prior", [None, 1, 2, None]),  # no draw plausible: the prior (1.2 x 80)
-    ],
-)
-def test_implausible_focal_length_redraws_then_holds_the_prior(monkeypatch, focals, focal, kept, draws):
-    """Issue 20: a focal length outside ``fov_range`` means self-calibration failed; the matching
-    is drawn again with the next RANSAC seeds, and failing those the focal length is held at
-    COLMAP's prior."""
+def _fake_draws(monkeypatch, draws, held):
+    """Make ``_map`` return the models ``draws`` (``(views, focal)`` or None) in turn, and ``held`` when the focal length is held."""
     from graphseg.backends.lifters import sfm
 
     seen = []
+    queue = list(draws)
+    given = {}
 
-    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", **kwargs):
-        seen.append((ransac_seed, known, tag))
-        if known:  # held at the prior
-            return _FakeCalibrated(5, float(K[0][0, 0]))
-        return _FakeCalibrated(5, focals[len({t for _, k, t in seen if not k}) - 1])
+    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", hold_focal=False, **kwargs):
+        if tag not in given:  # a draw: pooled SIFT, then plain SIFT when views are missing (same model here)
+            seen.append((ransac_seed, tag.lstrip("-") or "first"))
+            given[tag] = held if hold_focal else queue.pop(0)
+        spec = given[tag]
+        return None if spec is None else _FakeCalibrated(*spec)
 
     monkeypatch.setattr(sfm, "_map", fake_map)
-    monkeypatch.setattr(sfm, "_convert", lambda rec, names: sfm.SfmReconstruction(np.ones(5, bool), [rec.cameras[1].calibration_matrix()] * 5, [None] * 5, [None] * 5, np.zeros((0, 3)), []))
+    monkeypatch.setattr(sfm, "_convert", lambda rec, names: sfm.SfmReconstruction(np.ones(rec.k, bool), [rec.cameras[1].calibration_matrix()] * rec.k, [None] * rec.k, [None] * rec.k, np.zeros((0, 3)), []))
+    return seen
+
+
+# 80 px wide: focal 57 -> 70 degrees, 200 -> 22.6, 210 -> 21.6, 20 -> 127, 96 (the prior, 1.2 x 80) -> 45.2
+@pytest.mark.parametrize(
+    "draws, held, focal, views, kept, tags",
+    [
+        ([(5, 57.0)], None, 57.0, 5, "first", ["first"]),  # typical: nothing else runs
+        ([(5, 200.0), (5, 57.0)], None, 57.0, 5, "redraw 1", ["first", "r1"]),
+        ([(5, 200.0), (5, 20.0), (5, 60.0)], None, 60.0, 5, "redraw 2", ["first", "r1", "r2"]),
+        ([(5, 200.0), (5, 210.0)], None, 200.0, 5, "first", ["first", "r1"]),  # a long lens two draws agree on
+        ([(5, 200.0), None, (3, 57.0)], (5, 96.0), 96.0, 5, "prior", ["first", "r1", "r2", "prior"]),  # r2 lost views
+        ([(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0), 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model lost a view
+        ([(5, 200.0), (5, 20.0), (5, 250.0)], None, 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model failed
+    ],
+)
+def test_suspect_focal_length_redraws_then_holds_the_prior(monkeypatch, draws, held, focal, views, kept, tags):
+    """Issue 20: a focal length outside ``fov_range`` is suspect. The matching is drawn again with
+    the next RANSAC seeds, each in a database of its own; a redraw with as many views is kept when
+    its focal length is typical, and the first model when a redraw agrees with it; failing both, the
+    focal length is held at COLMAP's prior."""
+    from graphseg.backends.lifters import sfm
+
+    seen = _fake_draws(monkeypatch, draws, held)
     images = [np.zeros((60, 80, 3), np.uint8)] * 5
     rec = sfm.run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())
-    assert [d for d, _, _ in seen] == draws
-    assert rec.K[0][0, 0] == focal
+    assert [t for _, t in seen] == tags
+    assert [d for d, t in seen if t.startswith("r")] == list(range(1, len(tags) - 1 if "prior" in tags else len(tags)))
+    assert rec.K[0][0, 0] == focal and rec.registered.sum() == views
     check = rec.info["focal_check"]
-    assert check["kept"] == kept and check["range"] == [35.0, 110.0]
-    assert len(check["fov"]) == min(len(focals), 3)
+    assert check["kept"] == kept and check["range"] == [35.0, 110.0] and check["plausible"] == (tags == ["first"])
+    assert len(check["fov"]) == len(check["views"]) == len([t for t in tags if t != "prior"])
     line = focal_check_warning(check)
-    assert (line is None) == (kept == "first")
+    assert (line is None) == (tags == ["first"])
     if line:
         assert line.startswith(f"structure from motion: the focal length implied a {check['fov'][0]:.1f} degree field of view, outside 35-110")
         assert ("held at 1.2 x" in line) == (kept == "prior")
+        assert ("gave the same" in line) == ("confirmed" in check)
+        assert ("so the first was kept" in line) == (kept == "first" and "confirmed" not in check)
+        assert "nan" not in line
+
+
+def test_no_redraw_when_off_and_a_silent_check_never_keeps_a_suspect_model(monkeypatch):
+    """``redraws: 0`` goes straight to the prior, and a suspect first model that is kept still gets a warning."""
+    from graphseg.backends.lifters import sfm
+
+    seen = _fake_draws(monkeypatch, [(3, 200.0)], None)
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, **SfmLifter.Options(redraws=0).run_sfm_kwargs())
+    assert [t for _, t in seen] == ["first", "prior"]
+    assert rec.info["focal_check"]["kept"] == "first"
+    assert "so the first was kept" in focal_check_warning(rec.info["focal_check"])
+
+
+def test_redraw_seeds_wrap_below_colmaps_limit(monkeypatch):
+    from graphseg.backends.lifters import sfm
+
+    seen = _fake_draws(monkeypatch, [(3, 200.0), (3, 20.0), (3, 57.0)], None)
+    sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, **SfmLifter.Options(ransac_seed=2**31 - 2).run_sfm_kwargs())
+    assert [d for d, _ in seen] == [2**31 - 2, 0, 1]
 
 
 def test_focal_check_needs_no_redraw_with_known_intrinsics_or_when_off(monkeypatch):
     from graphseg.backends.lifters import sfm
 
-    seen = []
-
-    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", **kwargs):
-        seen.append(known)
-        return _FakeCalibrated(3, 200.0)  # 22.6 degrees: implausible
-
-    monkeypatch.setattr(sfm, "_map", fake_map)
-    monkeypatch.setattr(sfm, "_convert", lambda rec, names: sfm.SfmReconstruction(np.ones(3, bool), [None] * 3, [None] * 3, [None] * 3, np.zeros((0, 3)), []))
     images = [np.zeros((60, 80, 3), np.uint8)] * 3
     K = np.array([[200.0, 0, 40], [0, 200, 30], [0, 0, 1]])
+    seen = _fake_draws(monkeypatch, [(3, 200.0)], None)  # 22.6 degrees: suspect
     assert "focal_check" not in sfm.run_sfm(images, [K] * 3, **SfmLifter.Options().run_sfm_kwargs()).info  # a telephoto K is the user's
+    assert [t for _, t in seen] == ["first"]
+    seen = _fake_draws(monkeypatch, [(3, 200.0)], None)
     assert "focal_check" not in sfm.run_sfm(images, **SfmLifter.Options(fov_range=None).run_sfm_kwargs()).info
-    assert seen == [True, False]
+    assert [t for _, t in seen] == ["first"]
 
 
 @pytest.mark.parametrize("bad", [(0.0, 90.0), (90.0, 40.0), (30.0, 180.0)])
@@ -292,19 +324,34 @@ def test_fov_range_is_validated(bad):
 
 
 def test_focal_length_held_at_the_prior_on_real_photos(arc_scene):
-    """An impossible range sends a real reconstruction to the prior: every view registers with the
-    focal length held at 1.2 x the larger side, and the lifter says so in one warning line."""
-    lifter = SfmLifter(fov_range=(1.0, 2.0), redraws=1, stereo=False, fill=False)
+    """A range that excludes the true field of view, with no redraw, sends a real reconstruction to
+    the prior: every view registers with the focal length held at 1.2 x the larger side, the other
+    parameters estimated, and the lifter says so in one warning line."""
+    lifter = SfmLifter(fov_range=(80.0, 110.0), redraws=0, stereo=False, fill=False, camera_model="SIMPLE_RADIAL")
     photos = rgb_only(arc_scene, keep_intrinsics=False)
     rec, _ = lifter.reconstruct(photos)
     check = rec.info["focal_check"]
-    assert check["kept"] == "prior" and len(check["fov"]) == 2
-    assert all(abs(f - 63.7) < 2 for f in check["fov"])  # both draws found the true 63.7 degrees (focal 257 of 320 px)
+    assert check["kept"] == "prior" and len(check["fov"]) == 1 and abs(check["fov"][0] - 63.7) < 2  # the true 63.7 degrees (focal 257 of 320 px)
+    assert abs(check["prior_fov"] - 45.2) < 0.1
     assert rec.registered.all()
     assert all(k[0, 0] == 384.0 and k[1, 1] == 384.0 for k in rec.K)
+    assert any(d[0] != 0 for d in rec.dist)  # SIMPLE_RADIAL's k1 was still estimated
     lifted = lifter(photos)
     assert lifted.meta["sfm"]["focal_check"] == check
     assert [w for w in lifted.meta["warnings"] if "focal length" in w] == [focal_check_warning(check)]
+
+
+def test_an_unusual_focal_length_two_draws_agree_on_is_kept(arc_scene):
+    """A range that excludes the true field of view: the first redraw finds the same focal length,
+    so the first model is kept (a long lens is not a failure)."""
+    photos = [v.rgb for v in arc_scene.views]
+    kw = SfmLifter.Options(fov_range=(80.0, 110.0)).run_sfm_kwargs()
+    rec = run_sfm(photos, **kw)
+    check = rec.info["focal_check"]
+    assert check["kept"] == "first" and check["confirmed"] == 1 and len(check["fov"]) == 2
+    plain = run_sfm(photos, **{**kw, "fov_range": None})
+    for a, b in zip(rec.cam_to_world + rec.K, plain.cam_to_world + plain.K):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_lifter_metric_with_known_poses(arc_scene):

@@ -247,8 +247,9 @@ def run_sfm(
         database in name order before any feature is extracted, so their ids
         and the features (computed per image) do not depend on it: the
         reconstruction is the same for any count. Matching runs on one thread
-        unless ``ransac_seed`` is given, and mapping always does (its bundle
-        adjustment changes with the thread count).
+        unless its RANSAC is seeded (``ransac_seed``, and every redraw of the
+        focal-length check), and mapping always does (its bundle adjustment
+        changes with the thread count).
     ransac_seed : int, optional
         Seed every two-view RANSAC of the matching with this value
         (COLMAP's ``RANSACOptions.random_seed``): the verified matches of a
@@ -260,24 +261,36 @@ def run_sfm(
         views gave 34, 28, 6 or 13 triangulated points for four draws;
         ``docs/results.md``, round 21).
     fov_range : (float, float), optional
-        Horizontal fields of view (degrees) that an estimated focal length may
-        imply (only without ``K``). Outside it, self-calibration is taken to
-        have failed (:func:`focal_plausible`): the matching is drawn again with
-        ``redraws`` other RANSAC seeds, and the first model whose focal length
-        is plausible is kept; when none is, the focal length is held at
-        COLMAP's prior (1.2 x the larger side, :func:`prior_intrinsics`) and
-        the mapping runs again. None: no check.
+        Horizontal fields of view (degrees) typical of cameras. Only without
+        ``K``: a focal length outside this range is suspect
+        (:func:`focal_plausible`), and the features, matches and models are
+        built again (each in a database of its own) with ``redraws`` other
+        RANSAC seeds. The first of these models that registers at least as
+        many views as the first model is kept when its focal length lies in
+        the range. When instead its focal length agrees with the first model's
+        (within :data:`FOCAL_AGREEMENT`), the first model is kept: an unusual
+        lens that two draws agree on. When no redraw decides, the mapping runs
+        once more with the focal length held at COLMAP's prior (1.2 x the larger
+        side, :func:`prior_intrinsics`; ``camera_model``'s other parameters are
+        still estimated), and that model is kept if it registers as many views;
+        otherwise the first model is. None: no check.
     redraws : int
-        RANSAC seeds tried after an implausible focal length: ``ransac_seed``
-        (0 when None) plus 1, 2, ... ``redraws``.
+        RANSAC seeds tried after a suspect focal length: ``ransac_seed`` (0
+        when None) plus 1, 2, ... ``redraws`` (modulo 2**31 - 1). Their matching
+        runs on ``num_threads`` threads (a seeded RANSAC does not depend on it).
 
     Returns
     -------
     SfmReconstruction
         The largest model; views it does not contain are marked unregistered.
-        With ``fov_range``, ``info["focal_check"]`` records the field of view
-        of every draw tried and which model was kept (``"kept"``: ``"first"``,
-        ``"redraw k"`` or ``"prior"``).
+        With ``fov_range`` and no ``K``, once a model is built,
+        ``info["focal_check"]`` records the check: ``range``; ``fov`` and
+        ``views``, the field of view (degrees; None: no model) and registered
+        views of the first model and of each redraw; ``plausible`` (the first
+        focal length lies in the range); ``kept`` (``"first"``, ``"redraw k"``
+        or ``"prior"``); ``confirmed`` (the redraw that agreed with the first
+        focal length) and ``prior_fov`` (the held model's field of view) where
+        they apply. :func:`focal_check_warning` words it as one line.
 
     Notes
     -----
@@ -287,6 +300,7 @@ def run_sfm(
     register more on weakly textured views). Exhaustive matching: O(N^2)
     image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (matching
     and mapping run single-threaded for reproducibility; ``bench_rgb_only.py``).
+    A suspect focal length costs up to ``redraws + 1`` more such runs.
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -319,8 +333,9 @@ def focal_plausible(K: np.ndarray, width: int, fov_range: tuple[float, float]) -
     reprojection error as low as a right model's (``docs/results.md``, rounds
     18, 21 and 23). The range is a prior on cameras, not on scenes: 35-110
     degrees (the default of :class:`SfmLifter`) holds phone main cameras,
-    webcams, wrist and RGB-D colour cameras (about 55-90 degrees), and leaves out
-    telephoto lenses, which need ``K`` (or a wider ``fov_range``).
+    webcams, wrist and RGB-D colour cameras (about 55-90 degrees). Longer lenses
+    exist (YCB-Video's frames have 33.4 degrees), so :func:`run_sfm` keeps a
+    focal length outside the range when a second RANSAC draw agrees with it.
 
     Examples
     --------
@@ -364,14 +379,15 @@ def _run_sfm(
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     names = [f"{i:04d}.png" for i in range(n)]
-    h, w = images[0].shape[:2]
+    w = images[0].shape[1]
+    base_seed = 0 if ransac_seed is None else int(ransac_seed)
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
         (root / "images").mkdir()
         for name, img in zip(names, images):
             cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
 
-        def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, known_d: bool) -> Any:
+        def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, known_d: bool, hold: bool = False) -> Any:
             # Domain-size pooling first: its descriptors tell the squares of a checkered
             # table apart where plain SIFT's match the wrong square and give a wrong model
             # (docs/results.md, round 5). On weakly textured views it finds fewer matches
@@ -381,7 +397,7 @@ def _run_sfm(
             for pooling in (True, False):
                 rec = _map(
                     pycolmap, root, names, Kd, known_d, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling,
-                    num_threads=num_threads, ransac_seed=draw, tag=tag,
+                    num_threads=num_threads, ransac_seed=draw, tag=tag, hold_focal=hold,
                 )
                 if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                     best = rec
@@ -392,25 +408,14 @@ def _run_sfm(
         best = model(ransac_seed, "", K, known)
         check: dict[str, Any] | None = None
         if fov_range is not None and not known and best is not None:
-            fovs = [round(horizontal_fov(_model_K(best), w), 2)]
-            kept = "first"
-            base = 0 if ransac_seed is None else int(ransac_seed)
-            k = 0
-            while not focal_plausible(_model_K(best), w, fov_range) and k < max(0, int(redraws)):
-                k += 1
-                again = model(base + k, f"-r{k}", None, False)
-                if again is None:
-                    fovs.append(float("nan"))
-                    continue
-                fovs.append(round(horizontal_fov(_model_K(again), w), 2))
-                if focal_plausible(_model_K(again), w, fov_range):
-                    best, kept = again, f"redraw {k}"
-            if kept == "first" and not focal_plausible(_model_K(best), w, fov_range):
-                prior = prior_intrinsics(w, h)
-                held = model(ransac_seed, "-prior", [prior] * n, True)
-                if held is not None:
-                    best, kept = held, "prior"
-            check = {"range": [float(fov_range[0]), float(fov_range[1])], "fov": fovs, "kept": kept}
+            best, check = _check_focal(
+                best,
+                lambda k: model((base_seed + k) % _SEED_LIMIT, f"-r{k}", None, False),
+                lambda: model(ransac_seed, "-prior", None, False, hold=True),
+                w,
+                fov_range,
+                redraws,
+            )
         if best is None:
             return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
         out = _convert(best, names)
@@ -419,29 +424,79 @@ def _run_sfm(
         return out
 
 
+#: Seeds of COLMAP's RANSAC lie in 0 .. 2**31 - 2.
+_SEED_LIMIT = 2**31 - 1
+
+#: Two focal lengths within this relative difference agree (:func:`run_sfm`'s focal-length check).
+FOCAL_AGREEMENT = 0.1
+
+
+def _check_focal(first: Any, redraw: Any, hold: Any, width: int, fov_range: tuple[float, float], redraws: int) -> tuple[Any, dict[str, Any]]:
+    """The model :func:`run_sfm` keeps after its focal-length check, and the record of the check.
+
+    ``first`` is the first COLMAP model; ``redraw(k)`` builds the model of
+    redraw ``k`` (or None) and ``hold()`` the model with the focal length held
+    at the prior (or None). A replacement must register at least as many views
+    as ``first``.
+    """
+    f0 = float(_model_K(first)[0, 0])
+    v0 = int(first.num_reg_images())
+    fovs: list[float | None] = [round(horizontal_fov(_model_K(first), width), 2)]
+    views = [v0]
+    check: dict[str, Any] = {"range": [float(fov_range[0]), float(fov_range[1])], "fov": fovs, "views": views}
+    if focal_plausible(_model_K(first), width, fov_range):
+        return first, {**check, "plausible": True, "kept": "first"}
+    check["plausible"] = False
+    for k in range(1, max(0, int(redraws)) + 1):
+        again = redraw(k)
+        if again is None:
+            fovs.append(None)
+            views.append(0)
+            continue
+        Kk = _model_K(again)
+        fovs.append(round(horizontal_fov(Kk, width), 2))
+        views.append(int(again.num_reg_images()))
+        if views[-1] < v0:
+            continue
+        if focal_plausible(Kk, width, fov_range):
+            return again, {**check, "kept": f"redraw {k}"}
+        if abs(np.log(float(Kk[0, 0]) / f0)) <= np.log1p(FOCAL_AGREEMENT):
+            return first, {**check, "kept": "first", "confirmed": k}
+    held = hold()
+    if held is not None and int(held.num_reg_images()) >= v0:
+        return held, {**check, "kept": "prior", "prior_fov": round(horizontal_fov(_model_K(held), width), 2)}
+    return first, {**check, "kept": "first"}
+
+
 def focal_check_warning(check: dict[str, Any] | None) -> str | None:
-    """The one warning line for a focal-length check of :func:`run_sfm` (None when the first model passed).
+    """The one warning line for a focal-length check of :func:`run_sfm` (None when the first focal length was plausible).
 
     Examples
     --------
-    >>> focal_check_warning({"range": [35.0, 110.0], "fov": [29.9, 61.0], "kept": "redraw 1"})
-    'structure from motion: the focal length implied a 29.9 degree field of view, outside 35-110; RANSAC redraw 1 gave 61.0 and was kept'
-    >>> focal_check_warning({"range": [35.0, 110.0], "fov": [61.0], "kept": "first"}) is None
+    >>> base = {"range": [35.0, 110.0], "views": [3, 3, 3], "plausible": False}
+    >>> focal_check_warning({**base, "fov": [29.9, 61.0], "kept": "redraw 1"})
+    'structure from motion: the focal length implied a 29.9 degree field of view, outside 35-110; RANSAC redraw 1 gave 61.0 degrees and was kept'
+    >>> focal_check_warning({**base, "fov": [33.4, 33.2], "kept": "first", "confirmed": 1})
+    'structure from motion: the focal length implied a 33.4 degree field of view, outside 35-110; RANSAC redraw 1 gave the same (33.2), so it was kept'
+    >>> focal_check_warning({"range": [35.0, 110.0], "fov": [61.0], "views": [3], "plausible": True, "kept": "first"}) is None
     True
     """
-    if not check or check.get("kept") == "first" and len(check.get("fov", [])) <= 1:
+    if not check or check.get("plausible", True):
         return None
     lo, hi = check["range"]
     fov = check["fov"]
     head = f"structure from motion: the focal length implied a {fov[0]:.1f} degree field of view, outside {lo:g}-{hi:g}"
     kept = check["kept"]
     if kept.startswith("redraw"):
-        k = int(kept.split()[1])
-        return f"{head}; RANSAC {kept} gave {fov[k]:.1f} and was kept"
-    tried = ", ".join(f"{f:.1f}" for f in fov[1:])
+        return f"{head}; RANSAC {kept} gave {fov[int(kept.split()[1])]:.1f} degrees and was kept"
+    if check.get("confirmed"):
+        k = int(check["confirmed"])
+        return f"{head}; RANSAC redraw {k} gave the same ({fov[k]:.1f}), so it was kept"
+    tried = ", ".join("no model" if f is None else f"{f:.1f}" for f in fov[1:])
+    tried = f" (redraws: {tried})" if tried else ""
     if kept == "prior":
-        return f"{head}" + (f" (redraws: {tried})" if tried else "") + "; the focal length was held at 1.2 x the larger image side; give the intrinsics (K) if they are known"
-    return f"{head}" + (f" (redraws: {tried})" if tried else "") + "; no model with a plausible focal length; give the intrinsics (K) if they are known"
+        return f"{head}{tried}; the focal length was held at 1.2 x the larger image side; give the intrinsics (K) if they are known"
+    return f"{head}{tried}; no other model registered as many views, so the first was kept; give the intrinsics (K) if they are known"
 
 
 def _model_K(rec: Any) -> np.ndarray:
@@ -465,10 +520,14 @@ def _map(
     num_threads: int = 1,
     ransac_seed: int | None = None,
     tag: str = "",
+    hold_focal: bool = False,
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None.
 
     ``tag`` names this draw's database and models (each draw matches in a database of its own).
+    ``hold_focal``: the camera of ``camera_model`` starts at COLMAP's prior
+    (:func:`prior_intrinsics`) and its focal length stays there; the other
+    parameters are estimated as usual.
     """
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
@@ -488,6 +547,11 @@ def _map(
         reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
     else:
         reader.camera_model = camera_model
+        if hold_focal:
+            w, h = _image_size(root / "images" / names[0])
+            reader.camera_params = _prior_params(camera_model, float(prior_intrinsics(w, h)[0, 0]), w, h)
+            inc.ba_refine_focal_length = False
+            inc.mapper.abs_pose_refine_focal_length = False
     db = root / f"database-{tag}.db"
     # the images enter the database in name order first: with several extraction threads
     # COLMAP would otherwise number them in the order they finish, and the ids steer the mapper
@@ -504,7 +568,7 @@ def _map(
     pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
     best = None
     for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
-        out = root / f"sparse-{tag}{attempt}"
+        out = root / f"sparse-{tag}-{attempt}"
         out.mkdir()
         inc.random_seed = seed + attempt
         models = pycolmap.incremental_mapping(db, root / "images", out, options=inc)
@@ -515,6 +579,30 @@ def _map(
         if best is not None and best.num_reg_images() == n:
             break
     return best
+
+
+def _image_size(path: Path) -> tuple[int, int]:
+    """``(width, height)`` of an image file."""
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    return int(img.shape[1]), int(img.shape[0])
+
+
+def _prior_params(camera_model: str, f: float, width: int, height: int) -> str:
+    """COLMAP's parameter string of ``camera_model`` with focal length ``f``, the image centre and no distortion.
+
+    Examples
+    --------
+    >>> _prior_params("SIMPLE_RADIAL", 768.0, 640, 480)
+    '768.0,320.0,240.0,0.0'
+    >>> _prior_params("OPENCV", 768.0, 640, 480)
+    '768.0,768.0,320.0,240.0,0.0,0.0,0.0,0.0'
+    """
+    cx, cy = width / 2.0, height / 2.0
+    head = {"SIMPLE_PINHOLE": [f, cx, cy], "PINHOLE": [f, f, cx, cy], "SIMPLE_RADIAL": [f, cx, cy], "RADIAL": [f, cx, cy], "OPENCV": [f, f, cx, cy]}[camera_model]
+    extra = {"SIMPLE_PINHOLE": 0, "PINHOLE": 0, "SIMPLE_RADIAL": 1, "RADIAL": 2, "OPENCV": 4}[camera_model]
+    return ",".join(str(float(x)) for x in [*head, *([0.0] * extra)])
 
 
 def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
@@ -714,6 +802,13 @@ class SfmLifter(Backend):
         without depth is not taken (None: no colour test).
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
+    fov_range : (float, float) or None
+        Degrees, default 35-110: the horizontal fields of view typical of
+        cameras; a focal length outside needs a second RANSAC draw to agree, or
+        is replaced (:func:`run_sfm`). The warnings of the lifted scene say so
+        in one line, and ``meta["sfm"]["focal_check"]`` records the check.
+    redraws : int
+        RANSAC draws the check may try (:func:`run_sfm`).
     seed : int
         Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
@@ -724,7 +819,7 @@ class SfmLifter(Backend):
         model_config = ConfigDict(extra="forbid")
         peak_threshold: float = Field(0.002, gt=0, description="SIFT detector threshold (COLMAP's default 0.0067 finds too few keypoints on renders)")
         min_tri_angle: float = Field(2.0, gt=0, description="degrees: the initial pair's triangulation angle (new points: a quarter of it)")
-        num_threads: int = Field(2, ge=1, description="threads for SIFT feature extraction (the result does not depend on it; matching and mapping run on one thread)")
+        num_threads: int = Field(2, ge=1, description="threads for SIFT feature extraction and seeded matching (the result does not depend on it; mapping runs on one thread)")
         stereo: bool = Field(True, description="dense stereo where a neighbour view is close")
         max_pair_angle: float = Field(45.0, gt=0, description="degrees: neighbours whose viewing directions differ more are not used for stereo")
         max_neighbours: int = Field(4, ge=1, description="stereo pairs fused per view")
@@ -741,9 +836,9 @@ class SfmLifter(Backend):
         transfer_color_distance: float | None = Field(30.0, gt=0, description="CIE Lab distance above which a transferred point is refused (None: no colour test)")
         camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
         fov_range: tuple[float, float] | None = Field(
-            (35.0, 110.0), description="degrees: horizontal fields of view an estimated focal length may imply (outside: RANSAC redraws, then the focal length held at COLMAP's prior; None: no check)"
+            (35.0, 110.0), description="degrees: horizontal fields of view typical of cameras; an estimated focal length outside needs a RANSAC redraw to agree, or is replaced by a redraw's or COLMAP's prior (None: no check)"
         )
-        redraws: int = Field(2, ge=0, description="RANSAC redraws of the matching after an implausible focal length")
+        redraws: int = Field(2, ge=0, description="RANSAC redraws of the matching after a suspect focal length")
 
         @field_validator("fov_range")
         @classmethod
