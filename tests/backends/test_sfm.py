@@ -7,7 +7,8 @@ pytest.importorskip("pycolmap")
 pytest.importorskip("pybullet")
 
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
-from graphseg.backends.lifters.sfm import SfmLifter, focal_check_warning, run_sfm  # noqa: E402
+from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, focal_check_warning, run_sfm  # noqa: E402
+from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
 
@@ -252,6 +253,8 @@ def _fake_draws(monkeypatch, draws, held):
         ([(5, 200.0), (5, 57.0)], None, 57.0, 5, "redraw 1", ["first", "r1"]),
         ([(5, 200.0), (5, 20.0), (5, 60.0)], None, 60.0, 5, "redraw 2", ["first", "r1", "r2"]),
         ([(5, 200.0), (5, 210.0)], None, 200.0, 5, "first", ["first", "r1"]),  # a long lens two draws agree on
+        ([(4, 200.0), (5, 210.0)], None, 210.0, 5, "redraw 1", ["first", "r1"]),  # ... the redraw has more views
+        ([(5, 200.0), (5, 20.0), (5, 190.0)], None, 200.0, 5, "first", ["first", "r1", "r2"]),  # redraw 2 agrees
         ([(5, 200.0), None, (3, 57.0)], (5, 96.0), 96.0, 5, "prior", ["first", "r1", "r2", "prior"]),  # r2 lost views
         ([(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0), 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model lost a view
         ([(5, 200.0), (5, 20.0), (5, 250.0)], None, 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model failed
@@ -279,19 +282,50 @@ def test_suspect_focal_length_redraws_then_holds_the_prior(monkeypatch, draws, h
         assert line.startswith(f"structure from motion: the focal length implied a {check['fov'][0]:.1f} degree field of view, outside 35-110")
         assert ("held at 1.2 x" in line) == (kept == "prior")
         assert ("gave the same" in line) == ("confirmed" in check)
-        assert ("so the first was kept" in line) == (kept == "first" and "confirmed" not in check)
-        assert "nan" not in line
+        assert ("so the first model was kept" in line) == (kept == "first")
+        assert "nan" not in line and line.endswith(("was kept", "are known"))
 
 
-def test_no_redraw_when_off_and_a_silent_check_never_keeps_a_suspect_model(monkeypatch):
+def test_no_redraw_when_off_and_a_kept_suspect_model_is_never_silent(monkeypatch):
     """``redraws: 0`` goes straight to the prior, and a suspect first model that is kept still gets a warning."""
     from graphseg.backends.lifters import sfm
 
     seen = _fake_draws(monkeypatch, [(3, 200.0)], None)
     rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, **SfmLifter.Options(redraws=0).run_sfm_kwargs())
     assert [t for _, t in seen] == ["first", "prior"]
-    assert rec.info["focal_check"]["kept"] == "first"
-    assert "so the first was kept" in focal_check_warning(rec.info["focal_check"])
+    assert rec.info["focal_check"]["kept"] == "first" and rec.info["focal_check"]["prior_views"] == 0
+    assert focal_check_warning(rec.info["focal_check"]) == (
+        "structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110; no redraw gave a typical "
+        "or agreeing focal length and the focal length held at the prior built no model, so the first model was kept; give the "
+        "intrinsics (K) if they are known"
+    )
+
+
+def test_warning_lines_name_what_each_redraw_gave(monkeypatch):
+    """A typical redraw passed over for lost views says so; the prior's field of view is named."""
+    from graphseg.backends.lifters import sfm
+
+    _fake_draws(monkeypatch, [(5, 200.0), (4, 57.0), None], (5, 96.0))
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, **SfmLifter.Options().run_sfm_kwargs())
+    assert focal_check_warning(rec.info["focal_check"]) == (
+        "structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 "
+        "views, no model); the focal length was held at 1.2 x the larger image side (45.2 degrees); give the intrinsics (K) if "
+        "they are known"
+    )
+    _fake_draws(monkeypatch, [(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0))
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, **SfmLifter.Options().run_sfm_kwargs())
+    assert rec.info["focal_check"]["prior_views"] == 4 and rec.info["focal_check"]["kept"] == "first"
+    assert focal_check_warning(rec.info["focal_check"]).endswith(
+        "(redraws: 126.9, 18.2); no redraw gave a typical or agreeing focal length and the focal length held at the prior "
+        "registered 4 of 5 views, so the first model was kept; give the intrinsics (K) if they are known"
+    )
+
+
+def test_field_of_view_is_taken_across_the_larger_side():
+    from graphseg.backends.lifters.sfm import field_of_view, focal_plausible, prior_intrinsics
+
+    assert field_of_view(prior_intrinsics(480, 640), (480, 640)) == field_of_view(prior_intrinsics(640, 480), (640, 480))
+    assert focal_plausible(prior_intrinsics(480, 640), (480, 640), (35.0, 110.0))  # COLMAP's guess is typical in portrait too
 
 
 def test_redraw_seeds_wrap_below_colmaps_limit(monkeypatch):

@@ -49,7 +49,7 @@ __all__ = [
     "NOMINAL_DISTANCE",
     "CAMERA_MODELS",
     "not_registered_message",
-    "horizontal_fov",
+    "field_of_view",
     "focal_plausible",
     "prior_intrinsics",
     "focal_check_warning",
@@ -261,23 +261,26 @@ def run_sfm(
         views gave 34, 28, 6 or 13 triangulated points for four draws;
         ``docs/results.md``, round 21).
     fov_range : (float, float), optional
-        Horizontal fields of view (degrees) typical of cameras. Only without
-        ``K``: a focal length outside this range is suspect
-        (:func:`focal_plausible`), and the features, matches and models are
-        built again (each in a database of its own) with ``redraws`` other
-        RANSAC seeds. The first of these models that registers at least as
-        many views as the first model is kept when its focal length lies in
-        the range. When instead its focal length agrees with the first model's
-        (within :data:`FOCAL_AGREEMENT`), the first model is kept: an unusual
-        lens that two draws agree on. When no redraw decides, the mapping runs
-        once more with the focal length held at COLMAP's prior (1.2 x the larger
-        side, :func:`prior_intrinsics`; ``camera_model``'s other parameters are
-        still estimated), and that model is kept if it registers as many views;
+        Fields of view across the larger image side (degrees,
+        :func:`field_of_view`) typical of cameras. Only without ``K``: a focal
+        length outside this range is suspect (:func:`focal_plausible`), and up
+        to ``redraws`` more draws of the matching's RANSAC are tried, each
+        mapped from a database of its own (the features are reused). A redraw
+        that registers fewer views than the first model is passed over. The
+        first other redraw decides: if its focal length is typical, it is
+        kept; if it agrees with the first model's (within
+        :data:`FOCAL_AGREEMENT`), the first model is kept, or the redraw when
+        it registers more views: an unusual lens that two draws reproduce.
+        When no redraw decides, the first draw's matches are mapped again with
+        the focal length held at COLMAP's prior (1.2 x the larger side,
+        :func:`prior_intrinsics`; ``camera_model``'s other parameters are still
+        estimated), and that model is kept if it registers as many views;
         otherwise the first model is. None: no check.
     redraws : int
         RANSAC seeds tried after a suspect focal length: ``ransac_seed`` (0
         when None) plus 1, 2, ... ``redraws`` (modulo 2**31 - 1). Their matching
         runs on ``num_threads`` threads (a seeded RANSAC does not depend on it).
+        Each costs a matching and a mapping; the held prior costs a mapping.
 
     Returns
     -------
@@ -288,9 +291,10 @@ def run_sfm(
         ``views``, the field of view (degrees; None: no model) and registered
         views of the first model and of each redraw; ``plausible`` (the first
         focal length lies in the range); ``kept`` (``"first"``, ``"redraw k"``
-        or ``"prior"``); ``confirmed`` (the redraw that agreed with the first
-        focal length) and ``prior_fov`` (the held model's field of view) where
-        they apply. :func:`focal_check_warning` words it as one line.
+        or ``"prior"``); where they apply, ``confirmed`` (the redraw that agreed
+        with the first focal length), ``prior_views`` (views of the model with
+        the focal length held; 0: none built) and ``prior_fov`` (its field of
+        view). :func:`focal_check_warning` words it as one line.
 
     Notes
     -----
@@ -300,7 +304,8 @@ def run_sfm(
     register more on weakly textured views). Exhaustive matching: O(N^2)
     image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (matching
     and mapping run single-threaded for reproducibility; ``bench_rgb_only.py``).
-    A suspect focal length costs up to ``redraws + 1`` more such runs.
+    A suspect focal length costs up to ``redraws`` more matchings and up to
+    ``redraws + 1`` more mappings.
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -313,38 +318,46 @@ def run_sfm(
         pycolmap.logging.minloglevel = level
 
 
-def horizontal_fov(K: np.ndarray, width: int) -> float:
-    """The horizontal field of view (degrees) of intrinsics ``K`` ``[3, 3]`` for an image ``width`` pixels wide.
+def field_of_view(K: np.ndarray, size: tuple[int, int]) -> float:
+    """The field of view (degrees) of intrinsics ``K`` ``[3, 3]`` across the larger side of an image of ``size`` ``(width, height)``.
+
+    Across the larger side, so that portrait and landscape photos of one camera give the same value.
 
     Examples
     --------
-    >>> round(horizontal_fov(np.array([[320.0, 0, 320], [0, 320, 240], [0, 0, 1]]), 640), 1)
-    90.0
+    >>> landscape = np.array([[320.0, 0, 320], [0, 320, 240], [0, 0, 1]])
+    >>> portrait = np.array([[320.0, 0, 240], [0, 320, 320], [0, 0, 1]])
+    >>> round(field_of_view(landscape, (640, 480)), 1), round(field_of_view(portrait, (480, 640)), 1)
+    (90.0, 90.0)
     """
-    return float(np.degrees(2.0 * np.arctan2(0.5 * width, float(np.asarray(K)[0, 0]))))
+    K = np.asarray(K, np.float64)
+    w, h = int(size[0]), int(size[1])
+    side, f = (w, K[0, 0]) if w >= h else (h, K[1, 1])
+    return float(np.degrees(2.0 * np.arctan2(0.5 * side, float(f))))
 
 
-def focal_plausible(K: np.ndarray, width: int, fov_range: tuple[float, float]) -> bool:
-    """Whether ``K`` implies a horizontal field of view within ``fov_range`` (degrees, inclusive).
+def focal_plausible(K: np.ndarray, size: tuple[int, int], fov_range: tuple[float, float]) -> bool:
+    """Whether ``K`` implies a field of view (:func:`field_of_view`) within ``fov_range`` (degrees, inclusive).
 
     Self-calibration from a few views on a narrow arc constrains the focal
     length poorly: bundle adjustment can drift to a focal length two or three
     times too long (or too short), with poses many degrees wrong and a
     reprojection error as low as a right model's (``docs/results.md``, rounds
     18, 21 and 23). The range is a prior on cameras, not on scenes: 35-110
-    degrees (the default of :class:`SfmLifter`) holds phone main cameras,
-    webcams, wrist and RGB-D colour cameras (about 55-90 degrees). Longer lenses
+    degrees across the larger side (the default of :class:`SfmLifter`) holds
+    phone main cameras, webcams, wrist and RGB-D colour cameras (about 55-90
+    degrees), and COLMAP's own starting guess (45.2 degrees). Longer lenses
     exist (YCB-Video's frames have 33.4 degrees), so :func:`run_sfm` keeps a
     focal length outside the range when a second RANSAC draw agrees with it.
 
     Examples
     --------
     >>> K = np.array([[1200.0, 0, 320], [0, 1200, 240], [0, 0, 1]])     # 29.9 degrees
-    >>> focal_plausible(K, 640, (35.0, 110.0)), focal_plausible(K, 640, (20.0, 110.0))
+    >>> focal_plausible(K, (640, 480), (35.0, 110.0)), focal_plausible(K, (640, 480), (20.0, 110.0))
     (False, True)
     """
     lo, hi = fov_range
-    return bool(lo <= horizontal_fov(K, width) <= hi)
+    return bool(lo <= field_of_view(K, size) <= hi)
 
 
 def prior_intrinsics(width: int, height: int) -> np.ndarray:
@@ -379,7 +392,7 @@ def _run_sfm(
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     names = [f"{i:04d}.png" for i in range(n)]
-    w = images[0].shape[1]
+    size = (int(images[0].shape[1]), int(images[0].shape[0]))
     base_seed = 0 if ransac_seed is None else int(ransac_seed)
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
@@ -412,7 +425,7 @@ def _run_sfm(
                 best,
                 lambda k: model((base_seed + k) % _SEED_LIMIT, f"-r{k}", None, False),
                 lambda: model(ransac_seed, "-prior", None, False, hold=True),
-                w,
+                size,
                 fov_range,
                 redraws,
             )
@@ -431,7 +444,9 @@ _SEED_LIMIT = 2**31 - 1
 FOCAL_AGREEMENT = 0.1
 
 
-def _check_focal(first: Any, redraw: Any, hold: Any, width: int, fov_range: tuple[float, float], redraws: int) -> tuple[Any, dict[str, Any]]:
+def _check_focal(
+    first: Any, redraw: Any, hold: Any, size: tuple[int, int], fov_range: tuple[float, float], redraws: int
+) -> tuple[Any, dict[str, Any]]:
     """The model :func:`run_sfm` keeps after its focal-length check, and the record of the check.
 
     ``first`` is the first COLMAP model; ``redraw(k)`` builds the model of
@@ -441,10 +456,10 @@ def _check_focal(first: Any, redraw: Any, hold: Any, width: int, fov_range: tupl
     """
     f0 = float(_model_K(first)[0, 0])
     v0 = int(first.num_reg_images())
-    fovs: list[float | None] = [round(horizontal_fov(_model_K(first), width), 2)]
+    fovs: list[float | None] = [round(field_of_view(_model_K(first), size), 2)]
     views = [v0]
     check: dict[str, Any] = {"range": [float(fov_range[0]), float(fov_range[1])], "fov": fovs, "views": views}
-    if focal_plausible(_model_K(first), width, fov_range):
+    if focal_plausible(_model_K(first), size, fov_range):
         return first, {**check, "plausible": True, "kept": "first"}
     check["plausible"] = False
     for k in range(1, max(0, int(redraws)) + 1):
@@ -454,49 +469,58 @@ def _check_focal(first: Any, redraw: Any, hold: Any, width: int, fov_range: tupl
             views.append(0)
             continue
         Kk = _model_K(again)
-        fovs.append(round(horizontal_fov(Kk, width), 2))
+        fovs.append(round(field_of_view(Kk, size), 2))
         views.append(int(again.num_reg_images()))
-        if views[-1] < v0:
-            continue
-        if focal_plausible(Kk, width, fov_range):
-            return again, {**check, "kept": f"redraw {k}"}
-        if abs(np.log(float(Kk[0, 0]) / f0)) <= np.log1p(FOCAL_AGREEMENT):
-            return first, {**check, "kept": "first", "confirmed": k}
+        if views[-1] >= v0:
+            if focal_plausible(Kk, size, fov_range):
+                return again, {**check, "kept": f"redraw {k}"}
+            if abs(np.log(float(Kk[0, 0]) / f0)) <= np.log1p(FOCAL_AGREEMENT):  # an unusual lens, reproduced
+                return (again, {**check, "kept": f"redraw {k}", "confirmed": k}) if views[-1] > v0 else (first, {**check, "kept": "first", "confirmed": k})
+        del again  # one model at a time
     held = hold()
-    if held is not None and int(held.num_reg_images()) >= v0:
-        return held, {**check, "kept": "prior", "prior_fov": round(horizontal_fov(_model_K(held), width), 2)}
+    check["prior_views"] = 0 if held is None else int(held.num_reg_images())
+    if held is not None:
+        check["prior_fov"] = round(field_of_view(_model_K(held), size), 2)
+        if check["prior_views"] >= v0:
+            return held, {**check, "kept": "prior"}
     return first, {**check, "kept": "first"}
 
 
 def focal_check_warning(check: dict[str, Any] | None) -> str | None:
-    """The one warning line for a focal-length check of :func:`run_sfm` (None when the first focal length was plausible).
+    """The one warning line for a focal-length check of :func:`run_sfm` (None when the first focal length was typical).
 
     Examples
     --------
-    >>> base = {"range": [35.0, 110.0], "views": [3, 3, 3], "plausible": False}
-    >>> focal_check_warning({**base, "fov": [29.9, 61.0], "kept": "redraw 1"})
+    >>> base = {"range": [35.0, 110.0], "plausible": False}
+    >>> focal_check_warning({**base, "fov": [29.9, 61.0], "views": [3, 3], "kept": "redraw 1"})
     'structure from motion: the focal length implied a 29.9 degree field of view, outside 35-110; RANSAC redraw 1 gave 61.0 degrees and was kept'
-    >>> focal_check_warning({**base, "fov": [33.4, 33.2], "kept": "first", "confirmed": 1})
-    'structure from motion: the focal length implied a 33.4 degree field of view, outside 35-110; RANSAC redraw 1 gave the same (33.2), so it was kept'
+    >>> focal_check_warning({**base, "fov": [33.4, 33.2], "views": [9, 9], "kept": "first", "confirmed": 1})
+    'structure from motion: the focal length implied a 33.4 degree field of view, outside 35-110; RANSAC redraw 1 gave the same (33.2), so the first model was kept; give the intrinsics (K) if they are known'
+    >>> focal_check_warning({**base, "fov": [22.6, 70.1, None], "views": [5, 4, 0], "prior_views": 5, "prior_fov": 45.2, "kept": "prior"})
+    'structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 views, no model); the focal length was held at 1.2 x the larger image side (45.2 degrees); give the intrinsics (K) if they are known'
     >>> focal_check_warning({"range": [35.0, 110.0], "fov": [61.0], "views": [3], "plausible": True, "kept": "first"}) is None
     True
     """
     if not check or check.get("plausible", True):
         return None
     lo, hi = check["range"]
-    fov = check["fov"]
+    fov, views = check["fov"], check["views"]
     head = f"structure from motion: the focal length implied a {fov[0]:.1f} degree field of view, outside {lo:g}-{hi:g}"
+    hint = "give the intrinsics (K) if they are known"
     kept = check["kept"]
+    if "confirmed" in check:
+        k = int(check["confirmed"])
+        which = "the first model" if kept == "first" else f"redraw {k}, with {views[k]} views,"
+        return f"{head}; RANSAC redraw {k} gave the same ({fov[k]:.1f}), so {which} was kept; {hint}"
     if kept.startswith("redraw"):
         return f"{head}; RANSAC {kept} gave {fov[int(kept.split()[1])]:.1f} degrees and was kept"
-    if check.get("confirmed"):
-        k = int(check["confirmed"])
-        return f"{head}; RANSAC redraw {k} gave the same ({fov[k]:.1f}), so it was kept"
-    tried = ", ".join("no model" if f is None else f"{f:.1f}" for f in fov[1:])
+    n = views[0]
+    tried = ", ".join("no model" if f is None else f"{f:.1f}" + (f" on {v} of {n} views" if v < n else "") for f, v in zip(fov[1:], views[1:]))
     tried = f" (redraws: {tried})" if tried else ""
     if kept == "prior":
-        return f"{head}{tried}; the focal length was held at 1.2 x the larger image side; give the intrinsics (K) if they are known"
-    return f"{head}{tried}; no other model registered as many views, so the first was kept; give the intrinsics (K) if they are known"
+        return f"{head}{tried}; the focal length was held at 1.2 x the larger image side ({check['prior_fov']:.1f} degrees); {hint}"
+    held = "built no model" if not check.get("prior_views") else f"registered {check['prior_views']} of {n} views"
+    return f"{head}{tried}; no redraw gave a typical or agreeing focal length and the focal length held at the prior {held}, so the first model was kept; {hint}"
 
 
 def _model_K(rec: Any) -> np.ndarray:
@@ -524,48 +548,46 @@ def _map(
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None.
 
-    ``tag`` names this draw's database and models (each draw matches in a database of its own).
-    ``hold_focal``: the camera of ``camera_model`` starts at COLMAP's prior
-    (:func:`prior_intrinsics`) and its focal length stays there; the other
+    ``tag`` names this draw's database and models: every draw maps from a
+    database of its own. The first draw of each descriptor kind (pooled or
+    plain SIFT) keeps a copy of its database before matching
+    (``features-<kind>.db``), and later draws (the redraws of the
+    focal-length check) match from a copy of it: features do not depend on
+    the RANSAC seed. ``hold_focal``: the first draw's matches are mapped again
+    (``database-<kind>.db``, copied) with the camera of ``camera_model`` held at
+    COLMAP's prior focal length (:func:`prior_intrinsics`); its other
     parameters are estimated as usual.
     """
+    import shutil
+
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
-    tag = ("dsp" if pooling else "sift") + tag
-    reader = pycolmap.ImageReaderOptions()
-    mode = pycolmap.CameraMode.SINGLE
-    Ks: list[np.ndarray] = []
-    if known:
-        assert K is not None
-        Ks = [np.asarray(k, np.float64) for k in K]
-        same = all(np.allclose(k, Ks[0]) for k in Ks)
-        mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
-        k0 = Ks[0]
-        reader.camera_model = "PINHOLE"
-        reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
+    kind = "dsp" if pooling else "sift"
+    tag = kind + tag
+    db = root / f"database-{tag}.db"
+    features, matched = root / f"features-{kind}.db", root / f"database-{kind}.db"
+    if hold_focal and not known and matched.exists():
+        shutil.copyfile(matched, db)
+        _hold_prior_focal(pycolmap, db, camera_model)
+        inc.ba_refine_focal_length = False
+        inc.mapper.abs_pose_refine_focal_length = False
     else:
-        reader.camera_model = camera_model
-        if hold_focal:
-            w, h = _image_size(root / "images" / names[0])
-            reader.camera_params = _prior_params(camera_model, float(prior_intrinsics(w, h)[0, 0]), w, h)
+        if not known and features.exists():
+            shutil.copyfile(features, db)  # same images, same features: only the matching is drawn again
+        else:
+            _extract(pycolmap, root, db, names, K, known, camera_model, ext, num_threads)
+            if not known:
+                shutil.copyfile(db, features)
+        if hold_focal and not known:  # no matched database to reuse: the whole draw, held
+            _hold_prior_focal(pycolmap, db, camera_model)
             inc.ba_refine_focal_length = False
             inc.mapper.abs_pose_refine_focal_length = False
-    db = root / f"database-{tag}.db"
-    # the images enter the database in name order first: with several extraction threads
-    # COLMAP would otherwise number them in the order they finish, and the ids steer the mapper
-    with pycolmap.Database.open(db):
-        pass
-    pycolmap.import_images(db, root / "images", camera_mode=mode, image_names=names, options=reader)
-    ext.num_threads = max(1, int(num_threads))
-    pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
-    if known and mode == pycolmap.CameraMode.PER_IMAGE:
-        _set_per_image_cameras(pycolmap, db, names, Ks)
-    verify = _verification_options(pycolmap, ransac_seed)
-    if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
-        match.num_threads = max(1, int(num_threads))
-    pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+        verify = _verification_options(pycolmap, ransac_seed)
+        if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
+            match.num_threads = max(1, int(num_threads))
+        pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
     best = None
     for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
         out = root / f"sparse-{tag}-{attempt}"
@@ -581,12 +603,40 @@ def _map(
     return best
 
 
-def _image_size(path: Path) -> tuple[int, int]:
-    """``(width, height)`` of an image file."""
-    import cv2
+def _extract(pycolmap: Any, root: Path, db: Path, names: list[str], K: list[np.ndarray] | None, known: bool, camera_model: str, ext: Any, num_threads: int) -> None:
+    """Import the images (in name order) and extract their features into a new database ``db``."""
+    reader = pycolmap.ImageReaderOptions()
+    mode = pycolmap.CameraMode.SINGLE
+    Ks: list[np.ndarray] = []
+    if known:
+        assert K is not None
+        Ks = [np.asarray(k, np.float64) for k in K]
+        same = all(np.allclose(k, Ks[0]) for k in Ks)
+        mode = pycolmap.CameraMode.SINGLE if same else pycolmap.CameraMode.PER_IMAGE
+        k0 = Ks[0]
+        reader.camera_model = "PINHOLE"
+        reader.camera_params = f"{k0[0, 0]},{k0[1, 1]},{k0[0, 2] + 0.5},{k0[1, 2] + 0.5}"
+    else:
+        reader.camera_model = camera_model
+    # the images enter the database in name order first: with several extraction threads
+    # COLMAP would otherwise number them in the order they finish, and the ids steer the mapper
+    with pycolmap.Database.open(db):
+        pass
+    pycolmap.import_images(db, root / "images", camera_mode=mode, image_names=names, options=reader)
+    ext.num_threads = max(1, int(num_threads))
+    pycolmap.extract_features(db, root / "images", image_names=names, camera_mode=mode, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
+    if known and mode == pycolmap.CameraMode.PER_IMAGE:
+        _set_per_image_cameras(pycolmap, db, names, Ks)
 
-    img = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
-    return int(img.shape[1]), int(img.shape[0])
+
+def _hold_prior_focal(pycolmap: Any, db_path: Path, camera_model: str) -> None:
+    """Set every camera of a database to COLMAP's prior for ``camera_model`` and mark its focal length as known."""
+    with pycolmap.Database.open(db_path) as db:
+        for cam in db.read_all_cameras():
+            w, h = int(cam.width), int(cam.height)
+            cam.params = [float(x) for x in _prior_params(camera_model, float(prior_intrinsics(w, h)[0, 0]), w, h).split(",")]
+            cam.has_prior_focal_length = True
+            db.update_camera(cam)
 
 
 def _prior_params(camera_model: str, f: float, width: int, height: int) -> str:
@@ -803,10 +853,12 @@ class SfmLifter(Backend):
     camera_model : str
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     fov_range : (float, float) or None
-        Degrees, default 35-110: the horizontal fields of view typical of
-        cameras; a focal length outside needs a second RANSAC draw to agree, or
-        is replaced (:func:`run_sfm`). The warnings of the lifted scene say so
-        in one line, and ``meta["sfm"]["focal_check"]`` records the check.
+        Degrees, default 35-110: the fields of view across the larger image
+        side typical of cameras. A focal length outside is suspect: it stays
+        when a second RANSAC draw agrees with it, and is otherwise replaced by
+        a typical redraw or the prior, or kept when neither registers as many
+        views (:func:`run_sfm`). The warnings of the lifted scene say so in one
+        line, and ``meta["sfm"]["focal_check"]`` records the check.
     redraws : int
         RANSAC draws the check may try (:func:`run_sfm`).
     seed : int
@@ -836,9 +888,9 @@ class SfmLifter(Backend):
         transfer_color_distance: float | None = Field(30.0, gt=0, description="CIE Lab distance above which a transferred point is refused (None: no colour test)")
         camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
         fov_range: tuple[float, float] | None = Field(
-            (35.0, 110.0), description="degrees: horizontal fields of view typical of cameras; an estimated focal length outside needs a RANSAC redraw to agree, or is replaced by a redraw's or COLMAP's prior (None: no check)"
+            (35.0, 110.0), description="degrees across the larger image side, typical of cameras; a focal length outside stays if a RANSAC redraw agrees, else a typical redraw or COLMAP's prior replaces it when it registers as many views (None: no check)"
         )
-        redraws: int = Field(2, ge=0, description="RANSAC redraws of the matching after a suspect focal length")
+        redraws: int = Field(2, ge=0, le=10, description="RANSAC redraws of the matching after a suspect focal length")
 
         @field_validator("fov_range")
         @classmethod
