@@ -151,7 +151,7 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     ext.sift.peak_threshold = peak_threshold
     ext.sift.max_num_features = 8192
     ext.sift.domain_size_pooling = pooling
-    ext.num_threads = 1  # :func:`_map` raises it once the images are in the database (their ids then no longer depend on it)
+    ext.num_threads = 1  # :func:`_extract` raises it once the images are in the database (their ids then no longer depend on it)
     ext.use_gpu = False
     match = pycolmap.FeatureMatchingOptions()
     match.num_threads = 1  # two-view RANSAC draws from per-thread generators: one thread keeps it reproducible
@@ -265,27 +265,28 @@ def run_sfm(
         :func:`field_of_view`) typical of cameras. Only without ``K``: a focal
         length outside this range is suspect (:func:`focal_plausible`), and up
         to ``redraws`` more draws of the matching's RANSAC are tried, each
-        mapped from a database of its own (the features are reused). A redraw
-        that registers fewer views than the first model is passed over. The
-        first other redraw decides: if its focal length is typical, it is
-        kept; if it agrees with the first model's (within
-        :data:`FOCAL_AGREEMENT`), the first model is kept, or the redraw when
-        it registers more views: an unusual lens that two draws reproduce.
-        When no redraw decides, the first draw's matches are mapped again with
-        the focal length held at COLMAP's prior (1.2 x the larger side,
-        :func:`prior_intrinsics`; ``camera_model``'s other parameters are still
-        estimated), and that model is kept if it registers as many views;
-        otherwise the first model is. None: no check.
+        mapped from a database of its own (the features are reused). Redraws
+        are tried in turn; the first that registers at least as many views as
+        the first model and whose focal length is typical, or agrees with the
+        first model's (a ratio within 1 + :data:`FOCAL_AGREEMENT`), decides.
+        A typical one is kept. An agreeing one keeps the first model (or
+        itself, when it registers more views): an unusual lens that two draws
+        reproduce. When no redraw decides, the first draw's matches are mapped
+        again with the focal length held at COLMAP's prior (1.2 x the larger
+        side, :func:`prior_intrinsics`; ``camera_model``'s distortion terms are
+        still estimated; for plain SIFT that the first draw did not run, that
+        draw is matched afresh), and that model is kept if it registers as
+        many views; otherwise the first model is. None: no check.
     redraws : int
         RANSAC seeds tried after a suspect focal length: ``ransac_seed`` (0
         when None) plus 1, 2, ... ``redraws`` (modulo 2**31 - 1). Their matching
         runs on ``num_threads`` threads (a seeded RANSAC does not depend on it).
-        Each costs a matching and a mapping; the held prior costs a mapping.
 
     Returns
     -------
     SfmReconstruction
-        The largest model; views it does not contain are marked unregistered.
+        The largest model (with ``fov_range``: the one the focal-length check
+        keeps); views it does not contain are marked unregistered.
         With ``fov_range`` and no ``K``, once a model is built,
         ``info["focal_check"]`` records the check: ``range``; ``fov`` and
         ``views``, the field of view (degrees; None: no model) and registered
@@ -302,10 +303,12 @@ def run_sfm(
     plain SIFT as well, and the model with more views is kept (pooled
     descriptors tell the squares of a checkered table apart; plain ones
     register more on weakly textured views). Exhaustive matching: O(N^2)
-    image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (matching
-    and mapping run single-threaded for reproducibility; ``bench_rgb_only.py``).
-    A suspect focal length costs up to ``redraws`` more matchings and up to
-    ``redraws + 1`` more mappings.
+    image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (mapping,
+    and unseeded matching, run single-threaded for reproducibility;
+    ``bench_rgb_only.py``). A suspect focal length costs up to ``redraws + 1``
+    more draws, each a matching (none for the held prior when the first draw's
+    matches are reused) and a mapping of up to ``attempts`` runs, for pooled
+    and, when views are missing, plain SIFT.
     """
     pycolmap = require("pycolmap", "sfm")
     import cv2
@@ -553,10 +556,13 @@ def _map(
     plain SIFT) keeps a copy of its database before matching
     (``features-<kind>.db``), and later draws (the redraws of the
     focal-length check) match from a copy of it: features do not depend on
-    the RANSAC seed. ``hold_focal``: the first draw's matches are mapped again
-    (``database-<kind>.db``, copied) with the camera of ``camera_model`` held at
-    COLMAP's prior focal length (:func:`prior_intrinsics`); its other
-    parameters are estimated as usual.
+    the RANSAC seed (whichever draw first extracts a kind writes the copy;
+    only without ``K``). ``hold_focal``: the first draw's matches are mapped
+    again (``database-<kind>.db``, copied) with the camera of
+    ``camera_model`` held at COLMAP's prior focal length
+    (:func:`prior_intrinsics`); its distortion terms are estimated as usual.
+    Where the first draw did not run that kind, the draw is matched afresh
+    with the focal length held.
     """
     import shutil
 
@@ -804,9 +810,10 @@ class SfmLifter(Backend):
     peak_threshold, min_tri_angle :
         See :func:`run_sfm`.
     num_threads : int
-        Threads for SIFT feature extraction, and for matching when
-        ``ransac_seed`` is set (:func:`run_sfm`; the result does not depend on
-        it). Mapping runs on one thread so that the same photos give the same result.
+        Threads for SIFT feature extraction, and for matching when its RANSAC
+        is seeded (``ransac_seed``, and the redraws of the focal-length check;
+        :func:`run_sfm`; the result does not depend on it). Mapping runs on one
+        thread so that the same photos give the same result.
     ransac_seed : int or None
         Seeds every two-view RANSAC of the matching (:func:`run_sfm`); None
         keeps COLMAP's fixed default on one matching thread.
@@ -854,11 +861,12 @@ class SfmLifter(Backend):
         The camera estimated when the views have no intrinsics (see :func:`run_sfm`).
     fov_range : (float, float) or None
         Degrees, default 35-110: the fields of view across the larger image
-        side typical of cameras. A focal length outside is suspect: it stays
-        when a second RANSAC draw agrees with it, and is otherwise replaced by
-        a typical redraw or the prior, or kept when neither registers as many
-        views (:func:`run_sfm`). The warnings of the lifted scene say so in one
-        line, and ``meta["sfm"]["focal_check"]`` records the check.
+        side typical of cameras. A focal length outside is suspect: RANSAC
+        redraws with as many views are tried in turn, and the first typical
+        one replaces it, or the first agreeing one keeps it; failing both,
+        the prior replaces it if that model registers as many views
+        (:func:`run_sfm`). The warnings of the lifted scene say so in one line,
+        and ``meta["sfm"]["focal_check"]`` records the check.
     redraws : int
         RANSAC draws the check may try (:func:`run_sfm`).
     seed : int
@@ -888,7 +896,7 @@ class SfmLifter(Backend):
         transfer_color_distance: float | None = Field(30.0, gt=0, description="CIE Lab distance above which a transferred point is refused (None: no colour test)")
         camera_model: str = Field("SIMPLE_PINHOLE", description="the COLMAP camera estimated without intrinsics: " + ", ".join(CAMERA_MODELS))
         fov_range: tuple[float, float] | None = Field(
-            (35.0, 110.0), description="degrees across the larger image side, typical of cameras; a focal length outside stays if a RANSAC redraw agrees, else a typical redraw or COLMAP's prior replaces it when it registers as many views (None: no check)"
+            (35.0, 110.0), description="degrees across the larger image side, typical of cameras; outside, RANSAC redraws with as many views are tried in turn: the first typical one replaces the model, or the first agreeing one keeps it; else COLMAP's prior replaces it if it registers as many views (None: no check)"
         )
         redraws: int = Field(2, ge=0, le=10, description="RANSAC redraws of the matching after a suspect focal length")
 
