@@ -61,6 +61,7 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_serializer,
     model_validator,
@@ -256,16 +257,10 @@ class LiftedConfig(_Model):
         description="GrowConfig fields applied on top of the grow section (default: rims grown; {enabled: false} turns it off for estimated points)",
     )
 
-    @field_validator("trim")
+    @field_validator("trim", "grow")
     @classmethod
-    def _known_trim_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
-        TrimConfig.model_validate(v)
-        return v
-
-    @field_validator("grow")
-    @classmethod
-    def _known_grow_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
-        GrowConfig.model_validate(v)
+    def _known_rim_fields(cls, v: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
+        {"trim": TrimConfig, "grow": GrowConfig}[str(info.field_name)].model_validate(v)
         return v
 
     @field_validator("objects")

@@ -93,7 +93,7 @@ def grow_rims(
     """
     import cv2
     from scipy import ndimage
-    from skimage.segmentation import watershed
+    from skimage.segmentation import find_boundaries, watershed
 
     if len(labels) != len(images):
         raise ValueError(f"expected one image per label image (got {len(labels)} labels and {len(images)} images)")
@@ -139,12 +139,7 @@ def grow_rims(
         # the seam of a gap between two objects is outside too: the table in a gap narrower than
         # two rings has no pixel beyond the ring to flood it
         near = sub[tuple(ndimage.distance_transform_edt(sub <= 0, return_distances=False, return_indices=True))]
-        seam = np.zeros(sub.shape, bool)
-        seam[1:] |= near[1:] != near[:-1]
-        seam[:-1] |= near[1:] != near[:-1]
-        seam[:, 1:] |= near[:, 1:] != near[:, :-1]
-        seam[:, :-1] |= near[:, 1:] != near[:, :-1]
-        markers[ring[box] & seam] = outside
+        markers[ring[box] & find_boundaries(near, connectivity=1, mode="thick")] = outside
         flood = watershed(grad, markers, mask=region[box], watershed_line=True)
         take = ring[box] & empty[box] & (flood > 0) & (flood != outside)
         sub[take] = flood[take]

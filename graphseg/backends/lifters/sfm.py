@@ -457,12 +457,13 @@ def _check_focal(
     at the prior (or None). A replacement must register at least as many views
     as ``first``.
     """
-    f0 = float(_model_K(first)[0, 0])
+    K0 = _model_K(first)
+    f0 = float(K0[0, 0])
     v0 = int(first.num_reg_images())
-    fovs: list[float | None] = [round(field_of_view(_model_K(first), size), 2)]
+    fovs: list[float | None] = [round(field_of_view(K0, size), 2)]
     views = [v0]
     check: dict[str, Any] = {"range": [float(fov_range[0]), float(fov_range[1])], "fov": fovs, "views": views}
-    if focal_plausible(_model_K(first), size, fov_range):
+    if focal_plausible(K0, size, fov_range):
         return first, {**check, "plausible": True, "kept": "first"}
     check["plausible"] = False
     for k in range(1, max(0, int(redraws)) + 1):
@@ -576,7 +577,7 @@ def _map(
     features, matched = root / f"features-{kind}.db", root / f"database-{kind}.db"
     if hold_focal and not known and matched.exists():
         shutil.copyfile(matched, db)
-        _hold_prior_focal(pycolmap, db, camera_model)
+        _hold_prior_focal(pycolmap, db)
         inc.ba_refine_focal_length = False
         inc.mapper.abs_pose_refine_focal_length = False
     else:
@@ -587,7 +588,7 @@ def _map(
             if not known:
                 shutil.copyfile(db, features)
         if hold_focal and not known:  # no matched database to reuse: the whole draw, held
-            _hold_prior_focal(pycolmap, db, camera_model)
+            _hold_prior_focal(pycolmap, db)
             inc.ba_refine_focal_length = False
             inc.mapper.abs_pose_refine_focal_length = False
         verify = _verification_options(pycolmap, ransac_seed)
@@ -635,30 +636,15 @@ def _extract(pycolmap: Any, root: Path, db: Path, names: list[str], K: list[np.n
         _set_per_image_cameras(pycolmap, db, names, Ks)
 
 
-def _hold_prior_focal(pycolmap: Any, db_path: Path, camera_model: str) -> None:
-    """Set every camera of a database to COLMAP's prior for ``camera_model`` and mark its focal length as known."""
+def _hold_prior_focal(pycolmap: Any, db_path: Path) -> None:
+    """Set every camera of a database to COLMAP's starting parameters (:func:`prior_intrinsics`'s focal length) and mark its focal length as known."""
     with pycolmap.Database.open(db_path) as db:
         for cam in db.read_all_cameras():
             w, h = int(cam.width), int(cam.height)
-            cam.params = [float(x) for x in _prior_params(camera_model, float(prior_intrinsics(w, h)[0, 0]), w, h).split(",")]
+            prior = pycolmap.Camera.create_from_model_id(cam.camera_id, cam.model, float(prior_intrinsics(w, h)[0, 0]), w, h)
+            cam.params = prior.params
             cam.has_prior_focal_length = True
             db.update_camera(cam)
-
-
-def _prior_params(camera_model: str, f: float, width: int, height: int) -> str:
-    """COLMAP's parameter string of ``camera_model`` with focal length ``f``, the image centre and no distortion.
-
-    Examples
-    --------
-    >>> _prior_params("SIMPLE_RADIAL", 768.0, 640, 480)
-    '768.0,320.0,240.0,0.0'
-    >>> _prior_params("OPENCV", 768.0, 640, 480)
-    '768.0,768.0,320.0,240.0,0.0,0.0,0.0,0.0'
-    """
-    cx, cy = width / 2.0, height / 2.0
-    head = {"SIMPLE_PINHOLE": [f, cx, cy], "PINHOLE": [f, f, cx, cy], "SIMPLE_RADIAL": [f, cx, cy], "RADIAL": [f, cx, cy], "OPENCV": [f, f, cx, cy]}[camera_model]
-    extra = {"SIMPLE_PINHOLE": 0, "PINHOLE": 0, "SIMPLE_RADIAL": 1, "RADIAL": 2, "OPENCV": 4}[camera_model]
-    return ",".join(str(float(x)) for x in [*head, *([0.0] * extra)])
 
 
 def _set_per_image_cameras(pycolmap: Any, db_path: Path, names: list[str], Ks: list[np.ndarray]) -> None:
