@@ -19,7 +19,7 @@ from ..backends.segmenters.oracle_parts import split_mask
 from ..scene import Matches, Scene, View
 from ..sim.boxes import Box, intrinsics, look_at, render_boxes
 
-__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "gt_cut_masks", "exact_matches", "random_boxes", "demo_box_scene"]
+__all__ = ["box_scene", "two_boxes_scene", "oracle_part_masks", "gt_cut_masks", "exact_matches", "random_boxes", "demo_box_scene", "rim_scene"]
 
 TWO_BOXES = (
     Box((-0.08, 0.0, 0.05), (0.08, 0.08, 0.10), yaw=0.3, color=(200, 60, 60)),
@@ -131,3 +131,24 @@ def demo_box_scene(seed: int = 0, views: int = 8, objects: int = 6, shape: tuple
     """The demo's fallback scene when pybullet is missing: random boxes, cameras all around."""
     gen = np.random.default_rng(seed)
     return box_scene(random_boxes(gen, objects), views=views, shape=shape, arc_deg=360.0 * (views - 1) / views, radius=0.55, height=0.45, jitter=0.01, rng=gen, name=f"boxes-{seed}")
+
+
+def rim_scene(offset: int, h: int = 20, w: int = 24) -> tuple[np.ndarray, np.ndarray]:
+    """One view whose object label misses its colour edge by ``offset`` columns: label ids ``[H, W]`` and RGB ``[H, W, 3]``.
+
+    A bright object fills columns 12 and up of a dark table; it is labelled 3
+    from column ``12 + offset`` on (``offset`` > 0: the label stops short of
+    the edge; < 0: it runs over the table). The test scene of the rim steps
+    (:func:`graphseg.method.grow.grow_rims`, :func:`graphseg.method.trim.trim_rims`).
+
+    Examples
+    --------
+    >>> lab, rgb = rim_scene(-2)
+    >>> lab[0, 9:13].tolist(), rgb[0, 11:13, 0].tolist()
+    ([0, 3, 3, 3], [30, 200])
+    """
+    rgb = np.full((h, w, 3), 30, np.uint8)
+    rgb[:, 12:] = (200, 180, 40)
+    lab = np.zeros((h, w), np.int32)
+    lab[:, 12 + offset :] = 3
+    return lab, rgb

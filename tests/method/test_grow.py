@@ -4,15 +4,12 @@ import numpy as np
 import pytest
 
 from graphseg.method.grow import grow_rims
+from graphseg.testing.scenes import rim_scene
 
 
 def _short_scene(h=20, w=24, short=3):
     """A bright object (columns 12:) on a dark table, labelled from ``short`` columns too far right."""
-    rgb = np.full((h, w, 3), 30, np.uint8)
-    rgb[:, 12:] = (200, 180, 40)
-    lab = np.zeros((h, w), np.int32)
-    lab[:, 12 + short :] = 3
-    return lab, rgb
+    return rim_scene(short, h, w)
 
 
 def test_shape_dtype_and_inputs_untouched():

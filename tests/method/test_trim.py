@@ -4,15 +4,12 @@ import numpy as np
 import pytest
 
 from graphseg.method.trim import trim_rims
+from graphseg.testing.scenes import rim_scene
 
 
 def _halo_scene(h=20, w=24, halo=2):
     """A bright object (columns 12:) on a dark table, labelled ``halo`` columns too far left."""
-    rgb = np.full((h, w, 3), 30, np.uint8)
-    rgb[:, 12:] = (200, 180, 40)
-    lab = np.zeros((h, w), np.int32)
-    lab[:, 12 - halo :] = 3
-    return lab, rgb
+    return rim_scene(-halo, h, w)
 
 
 def test_shape_dtype_and_inputs_untouched():
