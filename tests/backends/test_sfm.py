@@ -7,7 +7,14 @@ pytest.importorskip("pycolmap")
 pytest.importorskip("pybullet")
 
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
-from graphseg.backends.lifters.sfm import NOMINAL_DISTANCE, SfmLifter, focal_check_warning, run_sfm  # noqa: E402
+from graphseg.backends.lifters.sfm import (  # noqa: E402
+    NOMINAL_DISTANCE,
+    SfmLifter,
+    focal_check_warning,
+    run_sfm,
+    stereo_check_warning,
+    stereo_outliers,
+)
 from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
@@ -473,6 +480,62 @@ def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path,
 
     recorded = Result.load(tmp_path / "out" / "result.npz").config
     assert recorded.backends.options["reprojection"]["max_color_distance"] == 30.0  # the colour test of estimated points ran
+
+
+def test_stereo_outliers_by_hand():
+    # medians of the others: view 0 -> median(0.1, 0.2, 0.3) = 0.2, so 0.03 < 0.2 * 0.2 = 0.04 is out
+    assert stereo_outliers([0.03, 0.1, 0.2, 0.3], [True] * 4).tolist() == [0]
+    assert stereo_outliers([0.05, 0.1, 0.2, 0.3], [True] * 4).tolist() == []  # 0.05 >= 0.04
+    assert stereo_outliers([0.05, 0.1, 0.2, 0.3], [True] * 4, ratio=0.3).tolist() == [0]  # 0.05 < 0.06
+
+
+def test_stereo_outliers_edge_cases():
+    assert stereo_outliers([0.0, 0.3, 0.3, 0.3], [False, True, True, True]).tolist() == []  # three tested views: too few to single one out
+    assert stereo_outliers([0.01, 0.3, 0.3], [True] * 3).tolist() == []  # three views
+    assert stereo_outliers([0.0, 0.3, 0.3, 0.3, 0.3], [False, True, True, True, True]).tolist() == []  # view 0 had no stereo neighbour
+    assert stereo_outliers([0.01, 0.3, 0.3, 0.3], [True] * 4, ratio=0.0).tolist() == []  # off
+    assert stereo_outliers([0.01, 0.01, 0.3, 0.3], [True] * 4).tolist() == []  # two views would stay: nothing is dropped
+    assert stereo_outliers([0.01, 0.01, 0.3, 0.3, 0.3], [True] * 5).tolist() == [0, 1]  # three stay
+    assert stereo_outliers(np.zeros(0), np.zeros(0, bool)).dtype == np.int64
+    with pytest.raises(ValueError, match=r"one length \(got 3 and 2\)"):
+        stereo_outliers([0.1, 0.2, 0.3], [True, True])
+
+
+def test_stereo_check_warning_names_every_view():
+    check = {"fractions": {"a": 0.016, "b": 0.017, "c": 0.2}, "median": 0.2, "dropped": ["a", "b"]}
+    assert stereo_check_warning(check) == (
+        "dense stereo covers 1.6% of view a, 1.7% of view b (median of the other views 20.0%): their poses from structure from motion are likely wrong, so they are left out"
+    )
+
+
+def test_a_wrongly_posed_view_is_left_out(arc_scene, monkeypatch):
+    """Round 24 (issue 20): a registered view whose pose is wrong (here view 2's camera turned 90 degrees about its
+    optical axis after structure from motion) finds few stereo depths; it is left out with one warning line, and the
+    other views' stereo runs again without it. The right reconstruction loses no view."""
+    from graphseg.backends.lifters import sfm
+
+    scene = rgb_only(arc_scene, keep_intrinsics=False)
+    right = SfmLifter()(scene)
+    assert [v.name for v in right.views] == [v.name for v in arc_scene.views] and "stereo_check" not in right.meta["sfm"]
+    real = sfm.run_sfm
+
+    def turned(*args, **kwargs):
+        rec = real(*args, **kwargs)
+        T = rec.cam_to_world[2].copy()
+        T[:3, :3] = T[:3, :3] @ np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+        rec.cam_to_world[2] = T
+        return rec
+
+    monkeypatch.setattr(sfm, "run_sfm", turned)
+    out = SfmLifter()(scene)
+    name = arc_scene.views[2].name
+    check = out.meta["sfm"]["stereo_check"]
+    assert out.meta["dropped_views"] == [name] and name not in [v.name for v in out.views]
+    assert check["dropped"] == [name] and check["fractions"][name] < 0.2 * check["median"]
+    assert out.meta["warnings"] == [stereo_check_warning(check)]
+    assert len(out.meta["sfm"]["dense_fraction"]) == len(arc_scene) - 1  # the stereo ran again on the kept views
+    off = SfmLifter(stereo_check=0.0)(scene)
+    assert len(off) == len(arc_scene) and "dropped_views" not in off.meta
 
 
 def test_lifter_keeps_registered_views_only(arc_scene):

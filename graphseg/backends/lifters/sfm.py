@@ -53,7 +53,13 @@ __all__ = [
     "focal_plausible",
     "prior_intrinsics",
     "focal_check_warning",
+    "stereo_outliers",
+    "stereo_check_warning",
+    "STEREO_CHECK",
 ]
+
+#: Default share of the other views' median dense-stereo coverage below which a view's pose is taken as wrong.
+STEREO_CHECK = 0.2
 
 #: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
@@ -375,6 +381,82 @@ def prior_intrinsics(width: int, height: int) -> np.ndarray:
     """
     f = 1.2 * max(width, height)
     return np.array([[f, 0.0, (width - 1) / 2.0], [0.0, f, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
+
+
+def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) -> np.ndarray:
+    """Views whose dense stereo covers far less than the other views': their poses are likely wrong.
+
+    Dense stereo (:func:`graphseg.backends.lifters.stereo.stereo_depths`)
+    matches each view along the epipolar lines its pose implies; a wrongly
+    posed view finds few consistent depths while its neighbours find many.
+    View ``i`` is an outlier when its covered fraction is below ``ratio``
+    times the median of the other tested views'. Only views with a stereo
+    neighbour are tested (``tested``), at least four of them, and at least
+    three views are always kept (no view is an outlier otherwise): with three
+    views, a view's stereo pairs are the other two, whose poses may be the
+    wrong ones (on a tune scene with three views, all three were 9-21 degrees
+    off and dropping the least covered one left no stereo at all).
+
+    Parameters
+    ----------
+    fractions : float ``[N]``
+        Per view, the share of pixels dense stereo gave a depth.
+    tested : bool ``[N]``
+        Views that had a stereo neighbour.
+    ratio : float
+        Share of the others' median below which a view is an outlier (0: none).
+
+    Returns
+    -------
+    int64 ``[k]``
+        Indices of the outlier views, ascending.
+
+    Notes
+    -----
+    O(N^2). On the tune half of ``bench_rgb_only.py`` (cached lifts of two
+    RANSAC draws, 15 scenes each) the wrongly posed views (rotation errors of
+    89-180 degrees) lay at 0.01-0.17 of the others' median, the rightly posed
+    ones at 0.26 or more (docs/results.md, round 24).
+
+    Examples
+    --------
+    >>> stereo_outliers([0.016, 0.017, 0.09, 0.2, 0.36, 0.24], [True] * 6).tolist()
+    [0, 1]
+    >>> stereo_outliers([0.0, 0.3, 0.3, 0.3, 0.3], [False, True, True, True, True]).tolist()  # view 0 had no neighbour
+    []
+    """
+    f = np.asarray(fractions, np.float64).ravel()
+    t = np.asarray(tested, bool).ravel()
+    if f.shape != t.shape:
+        raise ValueError(f"expected fractions and tested of one length (got {f.size} and {t.size})")
+    idx = np.flatnonzero(t)
+    if ratio <= 0 or idx.size < 4:
+        return np.zeros(0, np.int64)
+    out = [i for i in idx if f[i] < ratio * float(np.median(f[idx[idx != i]]))]
+    if len(f) - len(out) < 3:
+        return np.zeros(0, np.int64)
+    return np.asarray(out, np.int64)
+
+
+def stereo_check_warning(check: dict[str, Any]) -> str:
+    """The one warning line of a stereo check that left views out (``meta["sfm"]["stereo_check"]``).
+
+    Examples
+    --------
+    >>> stereo_check_warning({"fractions": {"a": 0.016, "b": 0.2}, "median": 0.2, "dropped": ["a"]})
+    'dense stereo covers 1.6% of view a (median of the other views 20.0%): its pose from structure from motion is likely wrong, so it is left out'
+    """
+    views = ", ".join(f"{100 * check['fractions'][n]:.1f}% of view {n}" for n in check["dropped"])
+    one = len(check["dropped"]) == 1
+    return (
+        f"dense stereo covers {views} (median of the other views {100 * check['median']:.1f}%): "
+        + ("its pose" if one else "their poses")
+        + " from structure from motion "
+        + ("is" if one else "are")
+        + " likely wrong, so "
+        + ("it is" if one else "they are")
+        + " left out"
+    )
 
 
 def _run_sfm(
@@ -855,6 +937,13 @@ class SfmLifter(Backend):
         and ``meta["sfm"]["focal_check"]`` records the check.
     redraws : int
         RANSAC draws the check may try (:func:`run_sfm`).
+    stereo_check : float
+        A registered view whose dense stereo covers less than this share of
+        the other views' median (:func:`stereo_outliers`) is taken as wrongly
+        posed: it is left out, like a view structure from motion did not
+        register, and the other views' stereo is computed again without it.
+        A warning line names it; ``meta["sfm"]["stereo_check"]`` records the
+        fractions. Needs ``stereo``; 0 turns it off.
     seed : int
         Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
@@ -885,6 +974,9 @@ class SfmLifter(Backend):
             (35.0, 110.0), description="degrees across the larger image side, typical of cameras; outside, RANSAC redraws with as many views are tried in turn: the first typical one replaces the model, or the first agreeing one keeps it; else COLMAP's prior replaces it if it registers as many views (None: no check)"
         )
         redraws: int = Field(2, ge=0, le=10, description="RANSAC redraws of the matching after a suspect focal length")
+        stereo_check: float = Field(
+            STEREO_CHECK, ge=0, lt=1, description="a view whose dense stereo covers less than this share of the other views' median is taken as wrongly posed and left out (4 or more views with a stereo neighbour, 3 always kept; 0: no check)"
+        )
 
         @field_validator("fov_range")
         @classmethod
@@ -936,24 +1028,50 @@ class SfmLifter(Backend):
 
         When structure from motion registers only ``k`` of ``n`` views (``k >= 2``),
         the scene keeps the ``k`` registered views; ``meta["dropped_views"]`` names
-        the others and ``meta["warnings"]`` holds one line saying so.
+        the others and ``meta["warnings"]`` holds one line saying so. Registered
+        views the stereo check takes as wrongly posed (``stereo_check``) are
+        left out too, named in ``meta["dropped_views"]`` and in a line of their own.
         """
         rec, scale = self.reconstruct(scene)
         keep = np.flatnonzero(rec.registered)
-        dropped = [scene.views[i].name for i in range(len(scene)) if not rec.registered[i]]
-        if dropped:
+        unregistered = [scene.views[i].name for i in range(len(scene)) if not rec.registered[i]]
+        if unregistered:
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
-        note = focal_check_warning(rec.info.get("focal_check"))
-        if note:
-            lifted.meta["warnings"] = [*lifted.meta.get("warnings", []), note]
+        check = self._stereo_check(lifted, rec)
+        if check is not None:  # the other views' stereo again, without the wrongly posed views as neighbours
+            kept = [i for i, v in enumerate(scene.views) if v.name not in check["dropped"]]
+            scene, rec = scene.select(kept), rec.select(kept)
+            lifted = self.point_maps(scene, rec, scale)
+            lifted.meta["sfm"]["stereo_check"] = check
+        notes = [focal_check_warning(rec.info.get("focal_check"))]
+        if unregistered:
+            notes.append(f"structure from motion registered {len(keep)} of {len(keep) + len(unregistered)} views; segmenting those {len(keep)}, without: {', '.join(unregistered)}")
+        if check is not None:
+            notes.append(stereo_check_warning(check))
+        dropped = [*unregistered, *(check["dropped"] if check is not None else [])]
         if dropped:
             lifted.meta["dropped_views"] = dropped
-            lifted.meta["warnings"] = [
-                *lifted.meta.get("warnings", []),
-                f"structure from motion registered {len(keep)} of {len(keep) + len(dropped)} views; segmenting those {len(keep)}, without: {', '.join(dropped)}",
-            ]
+        if any(notes):
+            lifted.meta["warnings"] = [*lifted.meta.get("warnings", []), *(n for n in notes if n)]
         return lifted
+
+    def _stereo_check(self, lifted: Scene, rec: SfmReconstruction) -> dict[str, Any] | None:
+        """The views :func:`stereo_outliers` takes as wrongly posed, or None when there are none."""
+        from .stereo import select_neighbours
+
+        o = self.options
+        frac = lifted.meta["sfm"].get("dense_fraction")
+        if not o.stereo or not o.stereo_check or frac is None:
+            return None
+        tested = [len(nb) > 0 for nb in select_neighbours(rec.cam_to_world, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours)]
+        bad = stereo_outliers(frac, tested, o.stereo_check)
+        if not bad.size:
+            return None
+        names = [v.name for v in lifted.views]
+        fractions = {n: round(float(f), 4) for n, f, t in zip(names, frac, tested) if t}
+        median = float(np.median([f for i, (f, t) in enumerate(zip(frac, tested)) if t and i not in set(bad.tolist())]))
+        return {"ratio": o.stereo_check, "fractions": fractions, "median": round(median, 4), "dropped": [names[i] for i in bad]}
 
     def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
         """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
