@@ -499,12 +499,14 @@ def test_stereo_outliers_edge_cases():
     assert stereo_outliers(np.zeros(0), np.zeros(0, bool)).dtype == np.int64
     with pytest.raises(ValueError, match=r"one length \(got 3 and 2\)"):
         stereo_outliers([0.1, 0.2, 0.3], [True, True])
+    with pytest.raises(ValueError, match=r"expected finite fractions \(got \[0.1, nan"):
+        stereo_outliers([0.1, np.nan, 0.3, 0.3], [True] * 4)
 
 
 def test_stereo_check_warning_names_every_view():
     check = {"fractions": {"a": 0.016, "b": 0.017, "c": 0.2}, "median": 0.2, "dropped": ["a", "b"]}
     assert stereo_check_warning(check) == (
-        "dense stereo covers 1.6% of view a, 1.7% of view b (median of the other views 20.0%): their poses from structure from motion are likely wrong, so they are left out"
+        "dense stereo covers 1.6% of view a, 1.7% of view b (median of the views kept 20.0%): their poses from structure from motion are likely wrong, so they are left out"
     )
 
 
@@ -534,8 +536,19 @@ def test_a_wrongly_posed_view_is_left_out(arc_scene, monkeypatch):
     assert check["dropped"] == [name] and check["fractions"][name] < 0.2 * check["median"]
     assert out.meta["warnings"] == [stereo_check_warning(check)]
     assert len(out.meta["sfm"]["dense_fraction"]) == len(arc_scene) - 1  # the stereo ran again on the kept views
+    assert out.meta["sfm"]["registered"] == len(arc_scene)  # what structure from motion registered
     off = SfmLifter(stereo_check=0.0)(scene)
     assert len(off) == len(arc_scene) and "dropped_views" not in off.meta
+    # with a view structure from motion cannot register as well: both are named, in the scene's order
+    h, w = arc_scene.views[0].shape
+    both = rgb_only(Scene([*arc_scene.views, View("blank", np.full((h, w, 3), 128, np.uint8))], arc_scene.objects, "both"), keep_intrinsics=False)
+    out = SfmLifter()(both)
+    check = out.meta["sfm"]["stereo_check"]
+    assert out.meta["dropped_views"] == [name, "blank"] and len(out) == len(arc_scene) - 1
+    assert out.meta["warnings"] == [
+        f"structure from motion registered {len(arc_scene)} of {len(arc_scene) + 1} views; segmenting {len(arc_scene) - 1} of those (see below), without: blank",
+        stereo_check_warning(check),
+    ]
 
 
 def test_lifter_keeps_registered_views_only(arc_scene):

@@ -413,6 +413,8 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
 
     Notes
     -----
+    A view posed so wrongly that no other view lies within the stereo's pair
+    angle has no stereo neighbour; it is not tested, so it is never an outlier.
     O(N^2). On the tune half of ``bench_rgb_only.py`` (cached lifts of two
     RANSAC draws, 15 scenes each) the wrongly posed views (rotation errors of
     89-180 degrees) lay at 0.01-0.17 of the others' median, the rightly posed
@@ -429,6 +431,8 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
     t = np.asarray(tested, bool).ravel()
     if f.shape != t.shape:
         raise ValueError(f"expected fractions and tested of one length (got {f.size} and {t.size})")
+    if not np.isfinite(f).all():
+        raise ValueError(f"expected finite fractions (got {f.tolist()})")
     idx = np.flatnonzero(t)
     if ratio <= 0 or idx.size < 4:
         return np.zeros(0, np.int64)
@@ -444,12 +448,12 @@ def stereo_check_warning(check: dict[str, Any]) -> str:
     Examples
     --------
     >>> stereo_check_warning({"fractions": {"a": 0.016, "b": 0.2}, "median": 0.2, "dropped": ["a"]})
-    'dense stereo covers 1.6% of view a (median of the other views 20.0%): its pose from structure from motion is likely wrong, so it is left out'
+    'dense stereo covers 1.6% of view a (median of the views kept 20.0%): its pose from structure from motion is likely wrong, so it is left out'
     """
     views = ", ".join(f"{100 * check['fractions'][n]:.1f}% of view {n}" for n in check["dropped"])
     one = len(check["dropped"]) == 1
     return (
-        f"dense stereo covers {views} (median of the other views {100 * check['median']:.1f}%): "
+        f"dense stereo covers {views} (median of the views kept {100 * check['median']:.1f}%): "
         + ("its pose" if one else "their poses")
         + " from structure from motion "
         + ("is" if one else "are")
@@ -941,9 +945,12 @@ class SfmLifter(Backend):
         A registered view whose dense stereo covers less than this share of
         the other views' median (:func:`stereo_outliers`) is taken as wrongly
         posed: it is left out, like a view structure from motion did not
-        register, and the other views' stereo is computed again without it.
-        A warning line names it; ``meta["sfm"]["stereo_check"]`` records the
-        fractions. Needs ``stereo``; 0 turns it off.
+        register, and the other views' stereo is computed again without it
+        (the scale stays the one found with every registered view). When views
+        are left out, a warning line names them and
+        ``meta["sfm"]["stereo_check"]`` records the coverage of every tested
+        view; ``meta["sfm"]["registered"]`` still counts what structure from
+        motion registered. Needs ``stereo``; 0 turns it off.
     seed : int
         Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
@@ -1033,31 +1040,43 @@ class SfmLifter(Backend):
         left out too, named in ``meta["dropped_views"]`` and in a line of their own.
         """
         rec, scale = self.reconstruct(scene)
+        names = [v.name for v in scene.views]
         keep = np.flatnonzero(rec.registered)
-        unregistered = [scene.views[i].name for i in range(len(scene)) if not rec.registered[i]]
-        if unregistered:
+        if len(keep) < len(scene):
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
         check = self._stereo_check(lifted, rec)
+        left_out: list[int] = []
         if check is not None:  # the other views' stereo again, without the wrongly posed views as neighbours
-            kept = [i for i, v in enumerate(scene.views) if v.name not in check["dropped"]]
+            bad = set(check.pop("indices"))
+            left_out = [int(keep[i]) for i in sorted(bad)]
+            kept = [i for i in range(len(scene)) if i not in bad]
             scene, rec = scene.select(kept), rec.select(kept)
             lifted = self.point_maps(scene, rec, scale)
+            lifted.meta["sfm"]["registered"] = len(keep)  # what structure from motion registered; the views kept are the scene's
             lifted.meta["sfm"]["stereo_check"] = check
+        unregistered = [names[i] for i in range(len(names)) if i not in set(keep.tolist())]
         notes = [focal_check_warning(rec.info.get("focal_check"))]
         if unregistered:
-            notes.append(f"structure from motion registered {len(keep)} of {len(keep) + len(unregistered)} views; segmenting those {len(keep)}, without: {', '.join(unregistered)}")
+            notes.append(
+                f"structure from motion registered {len(keep)} of {len(names)} views; "
+                + (f"segmenting those {len(keep)}" if check is None else f"segmenting {len(scene)} of those (see below)")
+                + f", without: {', '.join(unregistered)}"
+            )
         if check is not None:
             notes.append(stereo_check_warning(check))
-        dropped = [*unregistered, *(check["dropped"] if check is not None else [])]
+        dropped = sorted({*(names.index(n) for n in unregistered), *left_out})
         if dropped:
-            lifted.meta["dropped_views"] = dropped
+            lifted.meta["dropped_views"] = [names[i] for i in dropped]  # in the scene's order
         if any(notes):
             lifted.meta["warnings"] = [*lifted.meta.get("warnings", []), *(n for n in notes if n)]
         return lifted
 
     def _stereo_check(self, lifted: Scene, rec: SfmReconstruction) -> dict[str, Any] | None:
-        """The views :func:`stereo_outliers` takes as wrongly posed, or None when there are none."""
+        """The views :func:`stereo_outliers` takes as wrongly posed (``indices`` into ``lifted``'s views), or None when there are none.
+
+        ``median`` is that of the tested views kept, which the warning line reports.
+        """
         from .stereo import select_neighbours
 
         o = self.options
@@ -1069,9 +1088,10 @@ class SfmLifter(Backend):
         if not bad.size:
             return None
         names = [v.name for v in lifted.views]
+        out = set(bad.tolist())
         fractions = {n: round(float(f), 4) for n, f, t in zip(names, frac, tested) if t}
-        median = float(np.median([f for i, (f, t) in enumerate(zip(frac, tested)) if t and i not in set(bad.tolist())]))
-        return {"ratio": o.stereo_check, "fractions": fractions, "median": round(median, 4), "dropped": [names[i] for i in bad]}
+        median = float(np.median([f for i, (f, t) in enumerate(zip(frac, tested)) if t and i not in out]))
+        return {"ratio": o.stereo_check, "fractions": fractions, "median": round(median, 4), "dropped": [names[i] for i in bad], "indices": bad.tolist()}
 
     def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
         """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
