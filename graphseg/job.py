@@ -327,7 +327,7 @@ def run_job(
     if lifter is None and not scene.has_points and not scene.has_depth and cfg.backends.lifter == "rgbd":
         lifter_used = None  # RGB-only and no lifter chosen: lift() picks structure from motion ("sfm")
     scene = lift(scene, lifter_used, cfg)  # lifted once: run() reuses it and the metrics need its points
-    if scene.meta.get("dropped_views"):  # structure from motion left views out: run.json says which
+    if scene.meta.get("dropped_views"):  # the lifter left views out (not registered, or wrongly posed): run.json says which
         info["views"] = [v.name for v in scene.views]
         info["dropped_views"] = list(scene.meta["dropped_views"])
     timings["lift"] = time.perf_counter() - t
