@@ -496,6 +496,10 @@ def test_stereo_outliers_edge_cases():
     assert stereo_outliers([0.01, 0.3, 0.3, 0.3], [True] * 4, ratio=0.0).tolist() == []  # off
     assert stereo_outliers([0.01, 0.01, 0.3, 0.3], [True] * 4).tolist() == []  # two views would stay: nothing is dropped
     assert stereo_outliers([0.01, 0.01, 0.3, 0.3, 0.3], [True] * 5).tolist() == [0, 1]  # three stay
+    # the floor: stereo that covers little of every view gives no verdict (YCB-Video 0002, photos only: median 2%)
+    assert stereo_outliers([0.002, 0.0, 0.02, 0.02, 0.03], [True] * 5).tolist() == []
+    assert stereo_outliers([0.002, 0.0, 0.02, 0.02, 0.03], [True] * 5, floor=0.01).tolist() == [0, 1]
+    assert stereo_outliers([0.005, 0.05, 0.06, 0.07], [True] * 4).tolist() == [0]  # median 0.06 >= 0.05
     assert stereo_outliers(np.zeros(0), np.zeros(0, bool)).dtype == np.int64
     with pytest.raises(ValueError, match=r"one length \(got 3 and 2\)"):
         stereo_outliers([0.1, 0.2, 0.3], [True, True])

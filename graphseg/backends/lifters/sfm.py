@@ -56,10 +56,14 @@ __all__ = [
     "stereo_outliers",
     "stereo_check_warning",
     "STEREO_CHECK",
+    "STEREO_CHECK_FLOOR",
 ]
 
 #: Default share of the other views' median dense-stereo coverage below which a view's pose is taken as wrong.
 STEREO_CHECK = 0.2
+
+#: The other views' median coverage below which the stereo check says nothing (stereo fails everywhere).
+STEREO_CHECK_FLOOR = 0.05
 
 #: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
@@ -383,7 +387,7 @@ def prior_intrinsics(width: int, height: int) -> np.ndarray:
     return np.array([[f, 0.0, (width - 1) / 2.0], [0.0, f, (height - 1) / 2.0], [0.0, 0.0, 1.0]])
 
 
-def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) -> np.ndarray:
+def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK, *, floor: float = STEREO_CHECK_FLOOR) -> np.ndarray:
     """Views whose dense stereo covers far less than the other views': their poses are likely wrong.
 
     Dense stereo (:func:`graphseg.backends.lifters.stereo.stereo_depths`)
@@ -395,7 +399,10 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
     three views are always kept (no view is an outlier otherwise): with three
     views, a view's stereo pairs are the other two, whose poses may be the
     wrong ones (on a tune scene with three views, all three were 9-21 degrees
-    off and dropping the least covered one left no stereo at all).
+    off and dropping the least covered one left no stereo at all). Nor is a
+    view an outlier when the others' median is below ``floor``: where stereo
+    covers little of every view (a short baseline, a wrong model as a whole),
+    one view's low coverage says nothing about its pose.
 
     Parameters
     ----------
@@ -405,6 +412,8 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
         Views that had a stereo neighbour.
     ratio : float
         Share of the others' median below which a view is an outlier (0: none).
+    floor : float, keyword-only
+        The others' median coverage below which no view is an outlier.
 
     Returns
     -------
@@ -426,6 +435,8 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
     [0, 1]
     >>> stereo_outliers([0.0, 0.3, 0.3, 0.3, 0.3], [False, True, True, True, True]).tolist()  # view 0 had no neighbour
     []
+    >>> stereo_outliers([0.001, 0.02, 0.02, 0.03], [True] * 4).tolist()  # stereo covers 2% of the others: no verdict
+    []
     """
     f = np.asarray(fractions, np.float64).ravel()
     t = np.asarray(tested, bool).ravel()
@@ -436,7 +447,8 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK) ->
     idx = np.flatnonzero(t)
     if ratio <= 0 or idx.size < 4:
         return np.zeros(0, np.int64)
-    out = [i for i in idx if f[i] < ratio * float(np.median(f[idx[idx != i]]))]
+    medians = {int(i): float(np.median(f[idx[idx != i]])) for i in idx}
+    out = [i for i in idx if medians[int(i)] >= floor and f[i] < ratio * medians[int(i)]]
     if len(f) - len(out) < 3:
         return np.zeros(0, np.int64)
     return np.asarray(out, np.int64)
@@ -943,8 +955,8 @@ class SfmLifter(Backend):
         RANSAC draws the check may try (:func:`run_sfm`).
     stereo_check : float
         A registered view whose dense stereo covers less than this share of
-        the other views' median (:func:`stereo_outliers`) is taken as wrongly
-        posed: it is left out, like a view structure from motion did not
+        the other views' median (:func:`stereo_outliers`; that median must be
+        at least 5%) is taken as wrongly posed: it is left out, like a view structure from motion did not
         register, and the other views' stereo is computed again without it
         (the scale stays the one found with every registered view). When views
         are left out, a warning line names them and
@@ -982,7 +994,7 @@ class SfmLifter(Backend):
         )
         redraws: int = Field(2, ge=0, le=10, description="RANSAC redraws of the matching after a suspect focal length")
         stereo_check: float = Field(
-            STEREO_CHECK, ge=0, lt=1, description="a view whose dense stereo covers less than this share of the other views' median is taken as wrongly posed and left out (4 or more views with a stereo neighbour, 3 always kept; 0: no check)"
+            STEREO_CHECK, ge=0, lt=1, description="a view whose dense stereo covers less than this share of the other views' median is taken as wrongly posed and left out (4 or more views with a stereo neighbour, 3 always kept, the others' median at least 5%; 0: no check)"
         )
 
         @field_validator("fov_range")
