@@ -426,8 +426,9 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK, *,
     angle has no stereo neighbour; it is not tested, so it is never an outlier.
     O(N^2). On the tune half of ``bench_rgb_only.py`` (cached lifts of two
     RANSAC draws, 15 scenes each) the wrongly posed views (rotation errors of
-    89-180 degrees) lay at 0.01-0.17 of the others' median, the rightly posed
-    ones at 0.26 or more (docs/results.md, round 24).
+    89-180 degrees) lay at 0.01-0.17 of the others' median, and the views at
+    most 10 degrees off, in scenes of four or more views, at 0.26 or more
+    (docs/results.md, round 24).
 
     Examples
     --------
