@@ -29,6 +29,7 @@ Examples
 
 from __future__ import annotations
 
+import shutil
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -664,8 +665,6 @@ def _map(
     Where the first draw did not run that kind, the draw is matched afresh
     with the focal length held.
     """
-    import shutil
-
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
@@ -674,11 +673,10 @@ def _map(
     tag = kind + tag
     db = root / f"database-{tag}.db"
     features, matched = root / f"features-{kind}.db", root / f"database-{kind}.db"
-    if hold_focal and not known and matched.exists():
+    hold = hold_focal and not known
+    if hold and matched.exists():
         shutil.copyfile(matched, db)
-        _hold_prior_focal(pycolmap, db)
-        inc.ba_refine_focal_length = False
-        inc.mapper.abs_pose_refine_focal_length = False
+        _hold_prior_focal(pycolmap, db, inc)
     else:
         if not known and features.exists():
             shutil.copyfile(features, db)  # same images, same features: only the matching is drawn again
@@ -686,10 +684,8 @@ def _map(
             _extract(pycolmap, root, db, names, K, known, camera_model, ext, num_threads)
             if not known:
                 shutil.copyfile(db, features)
-        if hold_focal and not known:  # no matched database to reuse: the whole draw, held
-            _hold_prior_focal(pycolmap, db)
-            inc.ba_refine_focal_length = False
-            inc.mapper.abs_pose_refine_focal_length = False
+        if hold:  # no matched database to reuse: the whole draw, held
+            _hold_prior_focal(pycolmap, db, inc)
         verify = _verification_options(pycolmap, ransac_seed)
         if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
             match.num_threads = max(1, int(num_threads))
@@ -735,8 +731,10 @@ def _extract(pycolmap: Any, root: Path, db: Path, names: list[str], K: list[np.n
         _set_per_image_cameras(pycolmap, db, names, Ks)
 
 
-def _hold_prior_focal(pycolmap: Any, db_path: Path) -> None:
-    """Set every camera of a database to COLMAP's starting parameters (:func:`prior_intrinsics`'s focal length) and mark its focal length as known."""
+def _hold_prior_focal(pycolmap: Any, db_path: Path, inc: Any) -> None:
+    """Set every camera of a database to COLMAP's starting parameters (:func:`prior_intrinsics`'s focal length), mark its focal length as known and keep the mapper ``inc`` from refining it."""
+    inc.ba_refine_focal_length = False
+    inc.mapper.abs_pose_refine_focal_length = False
     with pycolmap.Database.open(db_path) as db:
         for cam in db.read_all_cameras():
             w, h = int(cam.width), int(cam.height)
@@ -1055,56 +1053,55 @@ class SfmLifter(Backend):
         rec, scale = self.reconstruct(scene)
         names = [v.name for v in scene.views]
         keep = np.flatnonzero(rec.registered)
-        if len(keep) < len(scene):
+        unregistered = np.flatnonzero(~rec.registered)
+        if unregistered.size:
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
-        check = self._stereo_check(lifted, rec)
-        left_out: list[int] = []
+        bad, check = self._stereo_check(lifted, rec)
         if check is not None:  # the other views' stereo again, without the wrongly posed views as neighbours
-            bad = set(check.pop("indices"))
-            left_out = [int(keep[i]) for i in sorted(bad)]
-            kept = [i for i in range(len(scene)) if i not in bad]
-            scene, rec = scene.select(kept), rec.select(kept)
+            kept = np.setdiff1d(np.arange(len(scene)), bad)
+            scene, rec = scene.select(kept.tolist()), rec.select(kept)
             lifted = self.point_maps(scene, rec, scale)
             lifted.meta["sfm"]["registered"] = len(keep)  # what structure from motion registered; the views kept are the scene's
             lifted.meta["sfm"]["stereo_check"] = check
-        unregistered = [names[i] for i in range(len(names)) if i not in set(keep.tolist())]
         notes = [focal_check_warning(rec.info.get("focal_check"))]
-        if unregistered:
+        if unregistered.size:
             notes.append(
                 f"structure from motion registered {len(keep)} of {len(names)} views; "
                 + (f"segmenting those {len(keep)}" if check is None else f"segmenting {len(scene)} of those (see below)")
-                + f", without: {', '.join(unregistered)}"
+                + f", without: {', '.join(names[i] for i in unregistered)}"
             )
         if check is not None:
             notes.append(stereo_check_warning(check))
-        dropped = sorted({*(names.index(n) for n in unregistered), *left_out})
-        if dropped:
-            lifted.meta["dropped_views"] = [names[i] for i in dropped]  # in the scene's order
+        dropped = np.union1d(unregistered, keep[bad])  # in the scene's order
+        if dropped.size:
+            lifted.meta["dropped_views"] = [names[i] for i in dropped]
         if any(notes):
             lifted.meta["warnings"] = [*lifted.meta.get("warnings", []), *(n for n in notes if n)]
         return lifted
 
-    def _stereo_check(self, lifted: Scene, rec: SfmReconstruction) -> dict[str, Any] | None:
-        """The views :func:`stereo_outliers` takes as wrongly posed (``indices`` into ``lifted``'s views), or None when there are none.
+    def _stereo_check(self, lifted: Scene, rec: SfmReconstruction) -> tuple[np.ndarray, dict[str, Any] | None]:
+        """The views :func:`stereo_outliers` takes as wrongly posed (indices into ``lifted``'s views) and the record of the check (None when there are none).
 
-        ``median`` is that of the tested views kept, which the warning line reports.
+        The record's ``median`` is that of the tested views kept, which the warning line reports.
         """
         from .stereo import select_neighbours
 
         o = self.options
         frac = lifted.meta["sfm"].get("dense_fraction")
+        none = np.zeros(0, np.int64)
         if not o.stereo or not o.stereo_check or frac is None:
-            return None
-        tested = [len(nb) > 0 for nb in select_neighbours(rec.cam_to_world, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours)]
+            return none, None
+        tested = np.array([len(nb) > 0 for nb in select_neighbours(rec.cam_to_world, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours)])
         bad = stereo_outliers(frac, tested, o.stereo_check)
         if not bad.size:
-            return None
+            return none, None
+        frac = np.asarray(frac, np.float64)
         names = [v.name for v in lifted.views]
-        out = set(bad.tolist())
-        fractions = {n: round(float(f), 4) for n, f, t in zip(names, frac, tested) if t}
-        median = float(np.median([f for i, (f, t) in enumerate(zip(frac, tested)) if t and i not in out]))
-        return {"ratio": o.stereo_check, "fractions": fractions, "median": round(median, 4), "dropped": [names[i] for i in bad], "indices": bad.tolist()}
+        kept = tested.copy()
+        kept[bad] = False
+        fractions = {names[i]: round(float(frac[i]), 4) for i in np.flatnonzero(tested)}
+        return bad, {"ratio": o.stereo_check, "fractions": fractions, "median": round(float(np.median(frac[kept])), 4), "dropped": [names[i] for i in bad]}
 
     def point_maps(self, scene: Scene, rec: SfmReconstruction, scale: dict[str, Any]) -> Scene:
         """The lifted scene from a (scaled) reconstruction: stereo, triangulated points and fill per view."""
