@@ -11,6 +11,14 @@ every pair, and both halves contain every object set (bundled, procedural,
 mixed), arcs and rings, 3, 5, 8 and 10 views, and every layout (spread, touching,
 stacked).
 
+An **extra** tuning pool (:data:`EXTRA`, ``scenes("extra")``) holds 30 more scenes: every
+tune scene again with the seed raised by 100 and by 200 (other objects, placements,
+textures and light) and a vertical field of view of 44, 50 or 56 degrees (about 57-70
+across the 640-pixel side; the benchmark's own cameras have 50). Being drawn from the
+tune half's specs, it is a tuning pool: settings may be chosen on it, and it is reported
+beside the halves, never in their means. It measures what the halves cannot show alone:
+how a setting chosen on 15 scenes does on scenes of the same kind that nobody looked at.
+
 Grid
     * object sets: ``bundled`` (``pybullet_data`` objects), ``procedural``
       (boxes, cylinders and spheres with plain, striped, noise and photo-like
@@ -25,8 +33,8 @@ Grid
 
 Examples
 --------
->>> len(SCENES), len(scenes("tune")), len(scenes("check"))
-(30, 15, 15)
+>>> len(SCENES), len(scenes("tune")), len(scenes("check")), len(scenes("extra"))
+(30, 15, 15, 30)
 >>> spec = get("arc20-3v-bundled-s2000")
 >>> spec.half, spec.kind, spec.views, spec.size
 ('tune', 'arc', 3, (640, 480))
@@ -34,15 +42,19 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..scene import Scene
 
-__all__ = ["SceneSpec", "SCENES", "HALVES", "scenes", "get", "make_scene", "rgb_only_scene", "describe"]
+__all__ = ["SceneSpec", "SCENES", "EXTRA", "HALVES", "scenes", "get", "make_scene", "rgb_only_scene", "describe"]
 
 #: The two halves of the split: settings are chosen on ``tune`` only; ``check`` is reported beside it.
 HALVES = ("tune", "check")
+
+#: The extra tuning pool's seed offsets (added to the tune scenes' seeds) and vertical fields of view (degrees).
+EXTRA_OFFSETS = (100, 200)
+EXTRA_FOVS = (44.0, 50.0, 56.0)
 
 
 @dataclass(frozen=True)
@@ -51,6 +63,8 @@ class SceneSpec:
 
     ``arc_deg`` below 120 is an *arc* (a wrist-camera sweep from the first view
     to the last); 120 and above a *ring* (360 = a full circle, views evenly spaced).
+    ``fov_deg`` is the cameras' vertical field of view; ``extra`` marks a scene of
+    the extra tuning pool (:data:`EXTRA`).
     """
 
     name: str
@@ -64,11 +78,13 @@ class SceneSpec:
     views: int
     size: tuple[int, int] = (640, 480)
     height: float = 0.42
+    fov_deg: float = 50.0
+    extra: bool = False
 
     @property
     def half(self) -> str:
-        """``"tune"`` for an even seed, ``"check"`` for an odd one (fixed; see the module docstring)."""
-        return HALVES[self.seed % 2]
+        """``"tune"`` for an even seed, ``"check"`` for an odd one (fixed; see the module docstring); ``"extra"`` for the extra pool."""
+        return "extra" if self.extra else HALVES[self.seed % 2]
 
     @property
     def kind(self) -> str:
@@ -137,21 +153,36 @@ def _build() -> tuple[SceneSpec, ...]:
 SCENES: tuple[SceneSpec, ...] = _build()
 
 
+def _build_extra() -> tuple[SceneSpec, ...]:
+    out = []
+    for off in EXTRA_OFFSETS:
+        for k, s in enumerate(x for x in SCENES if x.half == "tune"):
+            seed = s.seed + off
+            out.append(replace(s, seed=seed, name=f"{s.name.rsplit('-s', 1)[0]}-s{seed}", fov_deg=EXTRA_FOVS[k % len(EXTRA_FOVS)], extra=True))
+    return tuple(out)
+
+
+#: The extra tuning pool: every tune scene with its seed raised by 100 and 200 and a varied field of view.
+EXTRA: tuple[SceneSpec, ...] = _build_extra()
+
+
 def scenes(half: str = "all") -> list[SceneSpec]:
-    """The scenes of one half (``"tune"`` or ``"check"``) or ``"all"``."""
+    """The scenes of one half (``"tune"`` or ``"check"``), ``"all"`` (both halves) or the ``"extra"`` tuning pool."""
     if half == "all":
         return list(SCENES)
+    if half == "extra":
+        return list(EXTRA)
     if half not in HALVES:
-        raise ValueError(f"half: expected 'tune', 'check' or 'all' (got {half!r})")
+        raise ValueError(f"half: expected 'tune', 'check', 'all' or 'extra' (got {half!r})")
     return [s for s in SCENES if s.half == half]
 
 
 def get(name: str) -> SceneSpec:
-    """The scene called ``name`` (a ``ValueError`` naming the choices otherwise)."""
-    for s in SCENES:
+    """The scene called ``name``, in either half or the extra pool (a ``ValueError`` naming the halves' scenes otherwise)."""
+    for s in SCENES + EXTRA:
         if s.name == name:
             return s
-    raise ValueError(f"unknown benchmark scene {name!r}; choose from {', '.join(s.name for s in SCENES)}")
+    raise ValueError(f"unknown benchmark scene {name!r}; choose from {', '.join(s.name for s in SCENES)} (or the extra pool: describe('extra'))")
 
 
 def make_scene(spec: SceneSpec, **overrides: Any) -> Scene:
@@ -176,6 +207,7 @@ def make_scene(spec: SceneSpec, **overrides: Any) -> Scene:
         "object_set": spec.object_set,
         "table_texture": spec.table_texture,
         "lighting": spec.lighting,
+        "fov_deg": spec.fov_deg,
     }
     s = synthesize(**{**options, **overrides})
     return Scene(s.views, dict(s.objects), spec.name, {**s.meta, "family": spec.to_dict()})
@@ -193,7 +225,7 @@ def rgb_only_scene(spec: SceneSpec, scene: Scene | None = None) -> Scene:
 
 
 def describe(half: str = "all") -> str:
-    """A one-line-per-scene text listing of the scenes (name, half, set, objects, layout, table, light, arc, views, height).
+    """A one-line-per-scene text listing of the scenes (name, half, set, objects, layout, table, light, arc, views, height, vertical field of view).
 
     >>> describe("check").splitlines()[0].split()[:3]
     ['arc30-3v-bundled-s2001', 'check', 'bundled']
@@ -202,6 +234,6 @@ def describe(half: str = "all") -> str:
     for s in scenes(half):
         lines.append(
             f"{s.name:30s} {s.half:5s} {s.object_set:10s} {s.objects} {s.layout:8s} {str(s.table_texture):7s} "
-            f"{str(s.lighting):4s} {s.arc_deg:5.0f} {s.views:2d} {s.height:.2f}"
+            f"{str(s.lighting):4s} {s.arc_deg:5.0f} {s.views:2d} {s.height:.2f} {s.fov_deg:4.0f}"
         )
     return "\n".join(lines)

@@ -59,3 +59,30 @@ def test_make_scene_and_its_photos_only_version():
         assert v.K is None and v.cam_to_world is None and v.points is None
         assert np.array_equal(v.rgb, w.rgb) and np.array_equal(v.instances, w.instances)
     assert scene.views[0].depth is not None  # the input is not changed
+
+
+def test_extra_pool_is_the_tune_half_again_with_new_seeds_and_cameras():
+    extra = scenes("extra")
+    tune = scenes("tune")
+    assert len(extra) == 2 * len(tune) == len(families.EXTRA)
+    assert all(s.half == "extra" and s.extra for s in extra)
+    assert set(scenes("all")) == set(SCENES) and not set(extra) & set(SCENES)
+    names = [s.name for s in SCENES + families.EXTRA]
+    seeds = [s.seed for s in SCENES + families.EXTRA]
+    assert len(set(names)) == len(names) and len(set(seeds)) == len(seeds)
+    for k, s in enumerate(extra):
+        base = tune[k % len(tune)]
+        assert s.seed == base.seed + families.EXTRA_OFFSETS[k // len(tune)]
+        assert s.fov_deg == families.EXTRA_FOVS[(k % len(tune)) % 3]
+        assert dataclasses.replace(s, seed=base.seed, name=base.name, fov_deg=50.0, extra=False) == base
+        assert get(s.name) is s
+    assert {s.fov_deg for s in SCENES} == {50.0}
+
+
+def test_make_scene_uses_the_field_of_view():
+    pytest.importorskip("pybullet")
+    spec = dataclasses.replace(get("arc20-3v-bundled-s2100"), size=(64, 48), views=2)
+    assert spec.fov_deg == 44.0
+    scene = families.make_scene(spec)
+    assert np.isclose(scene.views[0].K[1, 1], 0.5 * 48 / np.tan(np.radians(44.0) / 2))
+    assert scene.meta["family"]["half"] == "extra" and scene.meta["family"]["fov_deg"] == 44.0
