@@ -8,8 +8,10 @@ pytest.importorskip("pybullet")
 
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
 from graphseg.backends.lifters.sfm import (  # noqa: E402
+    FOCAL_STARTS,
     NOMINAL_DISTANCE,
     SfmLifter,
+    choose_start,
     focal_check_warning,
     run_sfm,
     stereo_check_warning,
@@ -411,10 +413,11 @@ def test_lifter_metric_with_known_poses(arc_scene):
 
 
 def test_lifter_normalised_scale_without_poses(arc_scene):
-    out = SfmLifter(stereo=False, fill=False, sparse_radius=0)(rgb_only(arc_scene, keep_intrinsics=False))
+    out = SfmLifter(stereo=False, fill=False, sparse_radius=0, focal_starts=FOCAL_STARTS)(rgb_only(arc_scene, keep_intrinsics=False))
     assert out.meta["scale"]["metric"] is False
     d = [np.linalg.norm(v.points[np.isfinite(v.points).all(-1)] - v.cam_to_world[:3, 3], axis=1) for v in out.views]
     assert np.median(np.concatenate(d)) == pytest.approx(NOMINAL_DISTANCE, rel=0.05)
+    assert out.meta["sfm"]["focal_starts"]["fov"] == [45.24, 60.0, 70.0]  # meta records the focal-length starts
 
 
 def test_unregistrable_scene_raises_scene_error():
@@ -505,6 +508,57 @@ def test_stereo_outliers_edge_cases():
         stereo_outliers([0.1, 0.2, 0.3], [True, True])
     with pytest.raises(ValueError, match=r"expected finite fractions \(got \[0.1, nan"):
         stereo_outliers([0.1, np.nan, 0.3, 0.3], [True] * 4)
+
+
+def test_choose_start_by_hand():
+    # most views first; then at least 80% of the most observations; then the lowest reprojection error
+    assert choose_start([8, 8, 8], [2797, 2497, 2984], [0.993, 0.858, 0.939]) == 1  # 2497 >= 0.8 * 2984
+    assert choose_start([8, 8, 8], [2797, 2300, 2984], [0.993, 0.858, 0.939]) == 2  # 2300 < 2387: out
+    assert choose_start([3, 3, 3], [78, 17, 73], [0.836, 0.258, 0.825]) == 2  # a degenerate 17-observation model is out
+    assert choose_start([5, 4, 5], [100, 900, 90], [0.9, 0.1, 0.5]) == 2  # 4 views: out
+    assert choose_start([6, 6, 6], [500, 500, 500], [0.4, 0.4, 0.4]) == 0  # ties keep the prior's model
+    assert choose_start([6, 6], [100, 95], [0.5, 0.4], min_share=1.0) == 0
+    # with focal lengths: the winner replaces the prior's model only when its focal length differs by more than 10%
+    assert choose_start([8, 8, 8], [2797, 2497, 2984], [0.993, 0.858, 0.939], [592.0, 507.0, 580.0]) == 1  # 592 / 507 = 1.17
+    assert choose_start([8, 8, 8], [2797, 2497, 2984], [0.993, 0.858, 0.939], [592.0, 545.0, 580.0]) == 0  # 1.086: the same minimum
+    assert choose_start([8, 8], [100, 100], [0.9, 0.8], [500.0, 560.0], agreement=0.2) == 0
+
+
+def test_choose_start_edge_cases():
+    assert choose_start([3], [10], [1.0]) == 0
+    with pytest.raises(ValueError, match=r"one shape \[S\], S >= 1 \(got \[2\], \[1\], \[2\]\)"):
+        choose_start([3, 3], [10], [1.0, 1.0])
+    with pytest.raises(ValueError, match="S >= 1"):
+        choose_start([], [], [])
+    with pytest.raises(ValueError, match=r"min_share in \(0, 1\] \(got 0\)"):
+        choose_start([3], [10], [1.0], min_share=0)
+    with pytest.raises(ValueError, match="finite errors"):
+        choose_start([3, 3], [10, 10], [1.0, np.nan])
+    with pytest.raises(ValueError, match=r"positive finite focals of shape \[2\]"):
+        choose_start([3, 3], [10, 10], [1.0, 0.5], [500.0])
+    assert choose_start([3, 3], [10, 10], [1.0, 1.5], [500.0]) == 0  # the prior's model wins: focals are not read
+
+
+def test_focal_length_starts_on_real_photos(arc_scene):
+    """Without intrinsics the focal length also starts from 60 and 70 degrees (opt-in); the record names
+    every start, and without starts (the default) nothing is recorded."""
+    photos = [v.rgb for v in arc_scene.views]
+    kw = SfmLifter.Options(focal_starts=FOCAL_STARTS).run_sfm_kwargs()
+    rec = run_sfm(photos, **kw)
+    st = rec.info["focal_starts"]
+    assert st["fov"] == [45.24, 60.0, 70.0] and st["views"] == [6, 6, 6]
+    assert st["kept"] == 0  # every start reaches the same focal length: the prior's model stays
+    assert all(abs(f - 63.7) < 2 for f in st["result"])  # the true 63.7 degrees, from every start
+    assert abs(np.degrees(2 * np.arctan(160 / rec.K[0][0, 0])) - st["result"][st["kept"]]) < 0.01
+    assert "focal_starts" not in run_sfm(photos, **SfmLifter.Options().run_sfm_kwargs()).info  # off by default
+    known = run_sfm(photos, [v.K for v in arc_scene.views], **kw)
+    assert "focal_starts" not in known.info  # intrinsics given: nothing to start
+
+
+@pytest.mark.parametrize("bad", [(0.0,), (60.0, 180.0)])
+def test_focal_starts_are_validated(bad):
+    with pytest.raises(ValueError, match="focal_starts"):
+        SfmLifter.Options(focal_starts=bad)
 
 
 def test_stereo_check_warning_names_every_view():

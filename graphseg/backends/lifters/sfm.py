@@ -56,12 +56,24 @@ __all__ = [
     "focal_check_warning",
     "stereo_outliers",
     "stereo_check_warning",
+    "choose_start",
     "STEREO_CHECK",
     "STEREO_CHECK_FLOOR",
+    "FOCAL_STARTS",
+    "START_MIN_OBSERVATIONS",
 ]
 
 #: Default share of the other views' median dense-stereo coverage below which a view's pose is taken as wrong.
 STEREO_CHECK = 0.2
+
+#: Fields of view (degrees across the larger image side) worth trying as focal-length starts beside
+#: COLMAP's prior (1.2 x the larger side, about 45 degrees) for a wider camera (:func:`run_sfm`'s and
+#: the ``sfm`` lifter's ``focal_starts``, off by default: measured in ``docs/results.md``, round 25).
+FOCAL_STARTS = (60.0, 70.0)
+
+#: A start's model is a candidate only if it holds at least this share of the most observations
+#: (2D points in a track) among the models with the most views (:func:`choose_start`).
+START_MIN_OBSERVATIONS = 0.8
 
 #: The other views' median coverage below which the stereo check says nothing (stereo fails everywhere).
 STEREO_CHECK_FLOOR = 0.05
@@ -212,6 +224,7 @@ def run_sfm(
     ransac_seed: int | None = None,
     fov_range: tuple[float, float] | None = None,
     redraws: int = 0,
+    focal_starts: tuple[float, ...] = (),
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -292,12 +305,26 @@ def run_sfm(
         RANSAC seeds tried after a suspect focal length: ``ransac_seed`` (0
         when None) plus 1, 2, ... ``redraws`` (modulo 2**31 - 1). Their matching
         runs on ``num_threads`` threads (a seeded RANSAC does not depend on it).
+    focal_starts : tuple of float
+        Only without ``K``: fields of view (degrees across the larger side)
+        from which the shared focal length also starts. Every draw's matches
+        are mapped again from each start (the focal length still refined), and
+        :func:`choose_start` keeps one model among these and the one from
+        COLMAP's prior (the prior's, unless another start reached a focal
+        length more than 10% away with a lower reprojection error). On a few views over a narrow arc bundle adjustment
+        stops in a local minimum near its start, so a single start from the
+        prior (about 45 degrees) biases the focal length of a wider camera
+        towards it (``docs/results.md``, round 25). ``()``: the prior only.
 
     Returns
     -------
     SfmReconstruction
         The largest model (with ``fov_range``: the one the focal-length check
-        keeps); views it does not contain are marked unregistered.
+        keeps); views it does not contain are marked unregistered. With
+        ``focal_starts``, ``info["focal_starts"]`` records the kept draw's
+        starts: ``fov`` (the start, degrees; the first is the prior), ``views``,
+        ``observations``, ``error`` (mean reprojection error, pixels) and
+        ``result`` (the estimated field of view) per start, and ``kept`` (its index).
         With ``fov_range`` and no ``K``, once a model is built,
         ``info["focal_check"]`` records the check: ``range``; ``fov`` and
         ``views``, the field of view (degrees; None: no model) and registered
@@ -327,7 +354,7 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed, fov_range, redraws)
+        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed, fov_range, redraws, tuple(focal_starts))
     finally:
         pycolmap.logging.minloglevel = level
 
@@ -491,6 +518,7 @@ def _run_sfm(
     ransac_seed: int | None = None,
     fov_range: tuple[float, float] | None = None,
     redraws: int = 0,
+    focal_starts: tuple[float, ...] = (),
 ) -> SfmReconstruction:
     n = len(images)
     known = K is not None and all(k is not None for k in K)
@@ -503,6 +531,8 @@ def _run_sfm(
         for name, img in zip(names, images):
             cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
 
+        records: dict[int, tuple[Any, dict[str, Any]]] = {}  # each model built with its focal-length starts, by id
+
         def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, known_d: bool, hold: bool = False) -> Any:
             # Domain-size pooling first: its descriptors tell the squares of a checkered
             # table apart where plain SIFT's match the wrong square and give a wrong model
@@ -511,10 +541,13 @@ def _run_sfm(
             # with more registered views is kept (ties keep the pooled one).
             best = None
             for pooling in (True, False):
+                record: dict[str, Any] = {}
                 rec = _map(
                     pycolmap, root, names, Kd, known_d, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling,
-                    num_threads=num_threads, ransac_seed=draw, tag=tag, hold_focal=hold,
+                    num_threads=num_threads, ransac_seed=draw, tag=tag, hold_focal=hold, starts=() if hold else focal_starts, record=record,
                 )
+                if rec is not None and record:
+                    records[id(rec)] = (rec, record)  # the model is held, so its id stays its own
                 if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                     best = rec
                 if best is not None and best.num_reg_images() == n:
@@ -537,6 +570,8 @@ def _run_sfm(
         out = _convert(best, names)
         if check is not None:
             out.info["focal_check"] = check
+        if id(best) in records:
+            out.info["focal_starts"] = records[id(best)][1]
         return out
 
 
@@ -649,6 +684,8 @@ def _map(
     ransac_seed: int | None = None,
     tag: str = "",
     hold_focal: bool = False,
+    starts: tuple[float, ...] = (),
+    record: dict[str, Any] | None = None,
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None.
 
@@ -663,7 +700,11 @@ def _map(
     ``camera_model`` held at COLMAP's prior focal length
     (:func:`prior_intrinsics`); its distortion terms are estimated as usual.
     Where the first draw did not run that kind, the draw is matched afresh
-    with the focal length held.
+    with the focal length held. ``starts`` (fields of view, degrees; not with
+    ``K`` or ``hold_focal``): the same matches are mapped again from each of
+    these focal lengths (a copy of the database each), and
+    :func:`choose_start` picks among those models and the prior's; ``record``
+    then receives the starts (:func:`run_sfm`'s ``info["focal_starts"]``).
     """
     n = len(names)
     if hasattr(pycolmap, "set_random_seed"):
@@ -690,6 +731,37 @@ def _map(
         if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
             match.num_threads = max(1, int(num_threads))
         pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+    best = _incremental(pycolmap, root, db, tag, inc, seed, attempts, n)
+    if not starts or known or hold or best is None:
+        return best
+    size = _image_size(pycolmap, db)
+    cands = [(field_of_view(prior_intrinsics(*size), size), best)]  # the first start: COLMAP's prior
+    for fov in starts:
+        db_s = root / f"database-{tag}-fov{fov:g}.db"
+        shutil.copyfile(db, db_s)
+        _set_focal(pycolmap, db_s, float(fov))
+        _, _, inc_s = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
+        rec = _incremental(pycolmap, root, db_s, f"{tag}-fov{fov:g}", inc_s, seed, attempts, n)
+        if rec is not None:
+            cands.append((float(fov), rec))
+    views = [int(r.num_reg_images()) for _, r in cands]
+    obs = [int(sum(p.track.length() for p in r.points3D.values())) for _, r in cands]
+    err = [float(r.compute_mean_reprojection_error()) for _, r in cands]
+    k = choose_start(views, obs, err, [float(_model_K(r)[0, 0]) for _, r in cands])
+    if record is not None:
+        record.update(
+            fov=[round(f, 2) for f, _ in cands],
+            views=views,
+            observations=obs,
+            error=[round(e, 4) for e in err],
+            result=[round(field_of_view(_model_K(r), size), 2) for _, r in cands],
+            kept=k,
+        )
+    return cands[k][1]
+
+
+def _incremental(pycolmap: Any, root: Path, db: Path, tag: str, inc: Any, seed: int, attempts: int, n: int) -> Any:
+    """COLMAP's incremental mapping of the matches in ``db``, up to ``attempts`` mapper seeds; the model with the most views, or None."""
     best = None
     for attempt in range(max(1, attempts)):  # the mapper is randomised: retry from the same matches
         out = root / f"sparse-{tag}-{attempt}"
@@ -703,6 +775,93 @@ def _map(
         if best is not None and best.num_reg_images() == n:
             break
     return best
+
+
+def choose_start(views: Any, observations: Any, errors: Any, focals: Any = None, *, min_share: float = START_MIN_OBSERVATIONS, agreement: float = FOCAL_AGREEMENT) -> int:
+    """Which of several bundle adjustments (one per focal-length start; the first from COLMAP's prior) to keep.
+
+    Among the models that register the most views, those holding at least
+    ``min_share`` of the most observations compete, and the one with the
+    lowest mean reprojection error wins (ties: the first, i.e. the prior's).
+    On a few views over a narrow arc the reprojection error alone can prefer
+    a degenerate model that keeps only its few best points; the share of
+    observations rules those out. With ``focals``, the first model stays
+    unless the winner's focal length differs from its own by more than
+    ``agreement`` (relative): starts that reach the same focal length found
+    the same minimum, and their slightly different poses are no reason to
+    change the model (the segmentation downstream is sensitive to them).
+
+    Parameters
+    ----------
+    views, observations : int ``[S]``
+        Registered views and observations (2D points in a track) per model.
+    errors : float ``[S]``
+        Mean reprojection error per model (pixels).
+    focals : float ``[S]``, optional
+        Estimated focal length per model (pixels).
+    min_share : float
+        In ``(0, 1]``.
+    agreement : float
+        Relative difference of focal lengths that still agree (:data:`FOCAL_AGREEMENT`).
+
+    Returns
+    -------
+    int
+        The index of the model to keep.
+
+    Notes
+    -----
+    O(S).
+
+    Examples
+    --------
+    >>> choose_start([8, 8, 8], [2800, 2500, 2980], [0.99, 0.86, 0.94])
+    1
+    >>> choose_start([3, 3, 3], [78, 17, 73], [0.84, 0.26, 0.83])  # 17 observations: degenerate
+    2
+    >>> choose_start([5, 4], [100, 900], [0.9, 0.1])  # more views first
+    0
+    >>> choose_start([8, 8, 8], [2800, 2500, 2980], [0.99, 0.86, 0.94], [590, 585, 588])  # one focal length: the prior's model stays
+    0
+    """
+    v = np.asarray(views, np.int64).reshape(-1)
+    o = np.asarray(observations, np.float64).reshape(-1)
+    e = np.asarray(errors, np.float64).reshape(-1)
+    if not (v.shape == o.shape == e.shape) or v.size == 0:
+        raise ValueError(f"expected views, observations and errors of one shape [S], S >= 1 (got {list(v.shape)}, {list(o.shape)}, {list(e.shape)})")
+    if not 0 < min_share <= 1:
+        raise ValueError(f"expected min_share in (0, 1] (got {min_share})")
+    if not np.isfinite(e).all():
+        raise ValueError(f"expected finite errors (got {e.tolist()})")
+    top = v == v.max()
+    ok = top & (o >= min_share * o[top].max())
+    cand = np.flatnonzero(ok)
+    k = int(cand[np.argmin(e[cand])])
+    if focals is not None and k != 0:
+        f = np.asarray(focals, np.float64).reshape(-1)
+        if f.shape != v.shape or not (np.isfinite(f).all() and (f > 0).all()):
+            raise ValueError(f"expected positive finite focals of shape [{v.size}] (got {f.tolist()})")
+        if abs(np.log(f[k] / f[0])) <= np.log1p(agreement):
+            k = 0
+    return k
+
+
+def _image_size(pycolmap: Any, db_path: Path) -> tuple[int, int]:
+    """(width, height) of the first camera of a database."""
+    with pycolmap.Database.open(db_path) as db:
+        cam = db.read_all_cameras()[0]
+        return int(cam.width), int(cam.height)
+
+
+def _set_focal(pycolmap: Any, db_path: Path, fov: float) -> None:
+    """Start every camera of a database at the focal length of a field of view (degrees across the larger side); it is still refined."""
+    with pycolmap.Database.open(db_path) as db:
+        for cam in db.read_all_cameras():
+            w, h = int(cam.width), int(cam.height)
+            params = np.array(cam.params, np.float64)
+            params[cam.focal_length_idxs()] = (max(w, h) / 2) / np.tan(np.radians(fov) / 2)
+            cam.params = params
+            db.update_camera(cam)
 
 
 def _extract(pycolmap: Any, root: Path, db: Path, names: list[str], K: list[np.ndarray] | None, known: bool, camera_model: str, ext: Any, num_threads: int) -> None:
@@ -952,6 +1111,18 @@ class SfmLifter(Backend):
         and ``meta["sfm"]["focal_check"]`` records the check.
     redraws : int
         RANSAC draws the check may try (:func:`run_sfm`).
+    focal_starts : tuple of float
+        Fields of view (degrees across the larger side) from which bundle
+        adjustment also starts the focal length when the photos come without
+        intrinsics, beside COLMAP's prior (1.2 x the larger side, about 45
+        degrees); the model with the most views, at least 80% of the most
+        observations and the lowest reprojection error is kept when its focal
+        length differs from the prior's model's by more than 10%
+        (:func:`choose_start`; ``meta["sfm"]["focal_starts"]`` records them).
+        Off by default (``()``: the prior only). :data:`FOCAL_STARTS` (60 and 70
+        degrees) fixed a focal length stuck 15% long on one tune scene (IoU
+        +0.049) but changed the model of a badly reconstructed ring (IoU
+        0.313 -> 0.000) on the tuning pools (``docs/results.md``, round 25).
     stereo_check : float
         A registered view whose dense stereo covers less than this share of
         the other views' median (:func:`stereo_outliers`; that median must be
@@ -992,6 +1163,9 @@ class SfmLifter(Backend):
             (35.0, 110.0), description="degrees across the larger image side, typical of cameras; outside, RANSAC redraws with as many views are tried in turn: the first typical one replaces the model, or the first agreeing one keeps it; else COLMAP's prior replaces it if it registers as many views (None: no check)"
         )
         redraws: int = Field(2, ge=0, le=10, description="RANSAC redraws of the matching after a suspect focal length")
+        focal_starts: tuple[float, ...] = Field(
+            (), max_length=6, description="fields of view (degrees across the larger side) the focal length also starts from without intrinsics; the model with the most views and observations and the lowest reprojection error replaces the prior's when its focal length differs by more than 10% (): COLMAP's prior only"
+        )
         stereo_check: float = Field(
             STEREO_CHECK, ge=0, lt=1, description="a view whose dense stereo covers less than this share of the other views' median is taken as wrongly posed and left out (4 or more views with a stereo neighbour, 3 always kept, the others' median at least 5%; 0: no check)"
         )
@@ -1001,6 +1175,13 @@ class SfmLifter(Backend):
         def _valid_range(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
             if v is not None and not 0 < v[0] < v[1] < 180:
                 raise ValueError(f"expected fov_range (low, high) with 0 < low < high < 180 degrees (got {list(v)})")
+            return v
+
+        @field_validator("focal_starts")
+        @classmethod
+        def _valid_starts(cls, v: tuple[float, ...]) -> tuple[float, ...]:
+            if any(not 0 < x < 180 for x in v):
+                raise ValueError(f"expected focal_starts between 0 and 180 degrees (got {list(v)})")
             return v
 
         @field_validator("camera_model")
@@ -1028,6 +1209,7 @@ class SfmLifter(Backend):
                 "ransac_seed": self.ransac_seed,
                 "fov_range": self.fov_range,
                 "redraws": self.redraws,
+                "focal_starts": tuple(self.focal_starts),
             }
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
@@ -1154,6 +1336,7 @@ class SfmLifter(Backend):
                 "points": int(len(rec.points)),
                 "reprojection_error": rec.reprojection_error,
                 **({"focal_check": rec.info["focal_check"]} if "focal_check" in rec.info else {}),
+                **({"focal_starts": rec.info["focal_starts"]} if "focal_starts" in rec.info else {}),
                 **info,
             },
         }
