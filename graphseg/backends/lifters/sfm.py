@@ -1120,9 +1120,9 @@ class SfmLifter(Backend):
         length differs from the prior's model's by more than 10%
         (:func:`choose_start`; ``meta["sfm"]["focal_starts"]`` records them).
         Off by default (``()``: the prior only). :data:`FOCAL_STARTS` (60 and 70
-        degrees) fixed a focal length stuck 15% long on one tune scene (IoU
-        +0.049) but changed the model of a badly reconstructed ring (IoU
-        0.313 -> 0.000) on the tuning pools (``docs/results.md``, round 25).
+        degrees) brought the focal length of every scene it changed much
+        closer to the truth, but the IoU moved both ways (+0.049, -0.003 and
+        0.313 -> 0.000 on the tuning pools; ``docs/results.md``, round 25).
     stereo_check : float
         A registered view whose dense stereo covers less than this share of
         the other views' median (:func:`stereo_outliers`; that median must be
