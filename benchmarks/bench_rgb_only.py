@@ -55,7 +55,7 @@ Measures (per scene)
     every final object mapped to its majority object.
 
 Summary
-    Per half (tune, check, all) and per group (arcs, rings, 10-view rings, each
+    Per half (tune, check, all = both halves; and extra, for the extra pool) and per group (arcs, rings, 10-view rings, each
     object set, each view count, touching/stacked vs spread): means of every
     measure, the gap (true-depth IoU minus RGB-only IoU), and the acceptance checks
     (check half: RGB-only mean IoU >= 0.85 and gap <= 0.05; 10-view rings of
@@ -64,9 +64,11 @@ Summary
     are reported beside them.
 
 Writes ``benchmarks/results/rgb_only.json`` and ``rgb_only.md`` for a full run
-(``--half all``, no ``--scenes``, no ``--quick``); a partial run writes
-``rgb_only.partial.json`` / ``.md`` unless ``--json`` is given, so it never
-replaces the full result. ``--merge`` instead reruns the selected scenes and
+(``--half all``, no ``--scenes``, no ``--quick``), and ``rgb_only_extra.json`` /
+``.md`` for ``--half extra``; a partial run writes ``rgb_only.partial.json`` (or
+``rgb_only_extra.partial.json`` for extra-pool scenes) / ``.md`` unless ``--json``
+is given, so it never replaces the full result. ``--merge`` with extra-pool scenes
+merges into ``rgb_only_extra.json``. ``--merge`` instead reruns the selected scenes and
 merges their rows into the existing JSON (``--json``), recomputing the summary.
 The JSON records the graphseg git commit and both configurations.
 
@@ -560,7 +562,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", help="comma-separated scene names (graphseg.sim.families)")
     ap.add_argument("--config", help="YAML config over Config.preset('rgbd') for the RGB-only runs")
     ap.add_argument("--depth-config", help="YAML config over Config.preset('rgbd') for the true-depth runs (default: the preset)")
-    ap.add_argument("--json", help="output JSON (default benchmarks/results/rgb_only.json; rgb_only.partial.json for a partial run)")
+    ap.add_argument("--json", help="output JSON (default benchmarks/results/rgb_only.json, rgb_only_extra.json for --half extra; *.partial.json for a partial run)")
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
     ap.add_argument("--ycb", action="store_true", help="add the YCB-Video rows (extra group)")
     ap.add_argument("--merge", action="store_true", help="merge the rows of the selected scenes into the existing JSON")
@@ -581,9 +583,14 @@ def main(argv=None) -> int:
         todo = [families.get(n) for n in names]
     if args.quick:
         todo = [families.get(n) for n in QUICK if families.get(n) in todo]
+    if not todo and not args.ycb:
+        ap.error("no scene selected (--quick holds scenes of the halves only, not of --half extra)")
+    extra = bool(todo) and all(s.extra for s in todo)
+    if todo and not extra and any(s.extra for s in todo):
+        ap.error("--scenes: give scenes of the halves or of the extra pool, not both (they are written to different files)")
     partial = args.quick or bool(args.scenes) or args.half != "all"
-    full = "rgb_only_extra.json" if args.half == "extra" and not (args.quick or args.scenes) else "rgb_only.json"
-    path = Path(args.json) if args.json else RESULTS / ("rgb_only.partial.json" if partial and not args.merge and full == "rgb_only.json" else full)
+    full = "rgb_only_extra.json" if extra else "rgb_only.json"
+    path = Path(args.json) if args.json else RESULTS / (full.replace(".json", ".partial.json") if partial and not args.merge and not (extra and args.half == "extra" and not args.scenes) else full)
     config = str(Path(args.config).resolve()) if args.config else None
     depth_config = str(Path(args.depth_config).resolve()) if args.depth_config else None
     old_rows: list[dict] = []
@@ -611,7 +618,7 @@ def main(argv=None) -> int:
         "depth_config": _config(depth_config).to_dict(),
         "machine_note": f"{os.cpu_count()} CPU cores, shared (1/5/15-min load average at the start: {', '.join(f'{x:.1f}' for x in load0)}; at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())})",
         "elapsed_s": time.perf_counter() - t0,
-        "families": [s.to_dict() for s in (families.EXTRA if args.half == "extra" else families.SCENES)],
+        "families": [s.to_dict() for s in (families.EXTRA if extra else families.SCENES)],
         "targets": {"iou": TARGET_IOU, "gap": TARGET_GAP, "ring_iou": TARGET_RING_IOU, "seconds_8_views": TARGET_SECONDS_8, "rss_mb_8_views": TARGET_RSS_MB_8},
         "rows": rows,
         "summary": summarise(rows),

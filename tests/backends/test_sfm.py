@@ -522,6 +522,9 @@ def test_choose_start_by_hand():
     assert choose_start([8, 8, 8], [2797, 2497, 2984], [0.993, 0.858, 0.939], [592.0, 507.0, 580.0]) == 1  # 592 / 507 = 1.17
     assert choose_start([8, 8, 8], [2797, 2497, 2984], [0.993, 0.858, 0.939], [592.0, 545.0, 580.0]) == 0  # 1.086: the same minimum
     assert choose_start([8, 8], [100, 100], [0.9, 0.8], [500.0, 560.0], agreement=0.2) == 0
+    # the prior's model is kept for agreeing only when it competes itself
+    assert choose_start([5, 8], [100, 900], [0.9, 0.5], [500.0, 510.0]) == 1  # fewer views
+    assert choose_start([3, 3], [17, 78], [0.26, 0.83], [500.0, 510.0]) == 1  # too few observations
 
 
 def test_choose_start_edge_cases():
@@ -555,7 +558,7 @@ def test_focal_length_starts_on_real_photos(arc_scene):
     assert "focal_starts" not in known.info  # intrinsics given: nothing to start
 
 
-@pytest.mark.parametrize("bad", [(0.0,), (60.0, 180.0)])
+@pytest.mark.parametrize("bad", [(0.0,), (60.0, 180.0), (60.0, 60.0)])
 def test_focal_starts_are_validated(bad):
     with pytest.raises(ValueError, match="focal_starts"):
         SfmLifter.Options(focal_starts=bad)

@@ -324,7 +324,9 @@ def run_sfm(
         ``focal_starts``, ``info["focal_starts"]`` records the kept draw's
         starts: ``fov`` (the start, degrees; the first is the prior), ``views``,
         ``observations``, ``error`` (mean reprojection error, pixels) and
-        ``result`` (the estimated field of view) per start, and ``kept`` (its index).
+        ``result`` (the estimated field of view) per start that built a model,
+        ``kept`` (its index in those lists) and, where starts built none,
+        ``failed`` (their fields of view).
         With ``fov_range`` and no ``K``, once a model is built,
         ``info["focal_check"]`` records the check: ``range``; ``fov`` and
         ``views``, the field of view (degrees; None: no model) and registered
@@ -539,19 +541,19 @@ def _run_sfm(
             # (docs/results.md, round 5). On weakly textured views it finds fewer matches
             # and can leave views unregistered; then plain SIFT runs too and the model
             # with more registered views is kept (ties keep the pooled one).
-            best = None
+            best, best_record = None, {}
             for pooling in (True, False):
                 record: dict[str, Any] = {}
                 rec = _map(
                     pycolmap, root, names, Kd, known_d, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling,
                     num_threads=num_threads, ransac_seed=draw, tag=tag, hold_focal=hold, starts=() if hold else focal_starts, record=record,
                 )
-                if rec is not None and record:
-                    records[id(rec)] = (rec, record)  # the model is held, so its id stays its own
                 if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
-                    best = rec
+                    best, best_record = rec, record
                 if best is not None and best.num_reg_images() == n:
                     break
+            if best is not None and best_record:
+                records[id(best)] = (best, best_record)  # the model is held, so its id stays its own
             return best
 
         best = model(ransac_seed, "", K, known)
@@ -742,8 +744,10 @@ def _map(
         _set_focal(pycolmap, db_s, float(fov))
         _, _, inc_s = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
         rec = _incremental(pycolmap, root, db_s, f"{tag}-fov{fov:g}", inc_s, seed, attempts, n)
-        if rec is not None:
+        if rec is not None and rec.num_reg_images() > 0:
             cands.append((float(fov), rec))
+        elif record is not None:
+            record.setdefault("failed", []).append(float(fov))
     views = [int(r.num_reg_images()) for _, r in cands]
     obs = [int(sum(p.track.length() for p in r.points3D.values())) for _, r in cands]
     err = [float(r.compute_mean_reprojection_error()) for _, r in cands]
@@ -785,8 +789,8 @@ def choose_start(views: Any, observations: Any, errors: Any, focals: Any = None,
     lowest mean reprojection error wins (ties: the first, i.e. the prior's).
     On a few views over a narrow arc the reprojection error alone can prefer
     a degenerate model that keeps only its few best points; the share of
-    observations rules those out. With ``focals``, the first model stays
-    unless the winner's focal length differs from its own by more than
+    observations rules those out. With ``focals``, the first model, when it
+    competes, stays unless the winner's focal length differs from its own by more than
     ``agreement`` (relative): starts that reach the same focal length found
     the same minimum, and their slightly different poses are no reason to
     change the model (the segmentation downstream is sensitive to them).
@@ -837,7 +841,7 @@ def choose_start(views: Any, observations: Any, errors: Any, focals: Any = None,
     ok = top & (o >= min_share * o[top].max())
     cand = np.flatnonzero(ok)
     k = int(cand[np.argmin(e[cand])])
-    if focals is not None and k != 0:
+    if focals is not None and k != 0 and ok[0]:  # the prior's model competes and reached the same focal length
         f = np.asarray(focals, np.float64).reshape(-1)
         if f.shape != v.shape or not (np.isfinite(f).all() and (f > 0).all()):
             raise ValueError(f"expected positive finite focals of shape [{v.size}] (got {f.tolist()})")
@@ -1180,8 +1184,8 @@ class SfmLifter(Backend):
         @field_validator("focal_starts")
         @classmethod
         def _valid_starts(cls, v: tuple[float, ...]) -> tuple[float, ...]:
-            if any(not 0 < x < 180 for x in v):
-                raise ValueError(f"expected focal_starts between 0 and 180 degrees (got {list(v)})")
+            if any(not 0 < x < 180 for x in v) or len({f"{x:g}" for x in v}) != len(v):
+                raise ValueError(f"expected distinct focal_starts between 0 and 180 degrees (got {list(v)})")
             return v
 
         @field_validator("camera_model")
