@@ -736,7 +736,8 @@ def _map(
     best = _incremental(pycolmap, root, db, tag, inc, seed, attempts, n)
     if not starts or known or hold or best is None:
         return best
-    size = _image_size(pycolmap, db)
+    cam = next(iter(best.cameras.values()))  # one camera shared by every view
+    size = (int(cam.width), int(cam.height))
     cands = [(field_of_view(prior_intrinsics(*size), size), best)]  # the first start: COLMAP's prior
     for fov in starts:
         db_s = root / f"database-{tag}-fov{fov:g}.db"
@@ -749,7 +750,7 @@ def _map(
         elif record is not None:
             record.setdefault("failed", []).append(float(fov))
     views = [int(r.num_reg_images()) for _, r in cands]
-    obs = [int(sum(p.track.length() for p in r.points3D.values())) for _, r in cands]
+    obs = [int(r.compute_num_observations()) for _, r in cands]
     err = [float(r.compute_mean_reprojection_error()) for _, r in cands]
     k = choose_start(views, obs, err, [float(_model_K(r)[0, 0]) for _, r in cands])
     if record is not None:
@@ -848,13 +849,6 @@ def choose_start(views: Any, observations: Any, errors: Any, focals: Any = None,
         if abs(np.log(f[k] / f[0])) <= np.log1p(agreement):
             k = 0
     return k
-
-
-def _image_size(pycolmap: Any, db_path: Path) -> tuple[int, int]:
-    """(width, height) of the first camera of a database."""
-    with pycolmap.Database.open(db_path) as db:
-        cam = db.read_all_cameras()[0]
-        return int(cam.width), int(cam.height)
 
 
 def _set_focal(pycolmap: Any, db_path: Path, fov: float) -> None:
