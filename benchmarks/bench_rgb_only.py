@@ -67,7 +67,9 @@ Writes ``benchmarks/results/rgb_only.json`` and ``rgb_only.md`` for a full run
 (``--half all``, no ``--scenes``, no ``--quick``), and ``rgb_only_extra.json`` /
 ``.md`` for ``--half extra``; a partial run writes ``rgb_only.partial.json`` (or
 ``rgb_only_extra.partial.json`` for extra-pool scenes) / ``.md`` unless ``--json``
-is given, so it never replaces the full result. ``--merge`` with extra-pool scenes
+is given, so it never replaces the full result. ``--poses`` keeps the intrinsics
+and poses of the photos (depth still hidden: a robot's cameras) and writes
+``rgb_only_poses*.json`` / ``rgb_only_extra_poses*.json``. ``--merge`` with extra-pool scenes
 merges into ``rgb_only_extra.json``. ``--merge`` instead reruns the selected scenes and
 merges their rows into the existing JSON (``--json``), recomputing the summary.
 The JSON records the graphseg git commit and both configurations.
@@ -288,8 +290,8 @@ def _child(task: dict) -> dict:
     return out
 
 
-def run_scene(spec, tmp: Path, config: str | None, depth_config: str | None) -> dict:
-    """Render ``spec`` once, then run its RGB-only and true-depth subprocesses; one row."""
+def run_scene(spec, tmp: Path, config: str | None, depth_config: str | None, mode: str = "rgb") -> dict:
+    """Render ``spec`` once, then run its RGB-only (``mode`` ``"rgb"``, or ``"nodepth"``: intrinsics and poses kept) and true-depth subprocesses; one row."""
     from graphseg.sim.families import make_scene
 
     t = time.perf_counter()
@@ -300,7 +302,7 @@ def run_scene(spec, tmp: Path, config: str | None, depth_config: str | None) -> 
         pickle.dump(scene, f, protocol=pickle.HIGHEST_PROTOCOL)
     row: dict[str, Any] = {**spec.to_dict(), "scene": spec.name, "group": "synthetic", "render_s": render_s, "objects_in_scene": len(scene.objects), "fell_off": scene.meta.get("fell_off", [])}
     del scene
-    row["rgb"] = _child({"scene_file": str(path), "mode": "rgb", "config": config})
+    row["rgb"] = _child({"scene_file": str(path), "mode": mode, "config": config})
     row["depth"] = _child({"scene_file": str(path), "mode": "depth", "config": depth_config})
     path.unlink()
     return row
@@ -549,7 +551,8 @@ def report(payload: dict, path: Path) -> None:
         f"`python benchmarks/bench_rgb_only.py {' '.join(payload.get('argv', []))}`; graphseg commit `{git.get('commit')}` "
         f"({git.get('uncommitted_files', 0)} uncommitted files); RGB-only config: {payload.get('config_source')}; true-depth config: {payload.get('depth_config_source')}; "
         f"{payload.get('elapsed_s', 0) / 60:.1f} min on {payload.get('machine_note', '')}.\n\n"
-        "RGB-only = depth, poses and intrinsics removed; `*_d` = the same scene with its true depth. "
+        + ("RGB-only = depth hidden, the intrinsics and poses kept (`--poses`: the cameras are given); " if payload.get("rgb_mode") == "nodepth" else "RGB-only = depth, poses and intrinsics removed; ")
+        + "`*_d` = the same scene with its true depth. "
         "IoU, F1, precision and PQ are computed on the true point maps for both runs; a failed RGB-only run counts as 0.\n\n"
         "## Acceptance checks\n\n" + t3 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + "\n\n## Where the loss is\n\n" + LOSS_NOTE + "\n\n" + t5 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
     )
@@ -566,6 +569,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
     ap.add_argument("--ycb", action="store_true", help="add the YCB-Video rows (extra group)")
     ap.add_argument("--merge", action="store_true", help="merge the rows of the selected scenes into the existing JSON")
+    ap.add_argument("--poses", action="store_true", help="keep the intrinsics and poses (depth hidden, a robot's cameras): the 'rgb' runs become 'nodepth' runs; written to rgb_only_poses*.json")
     ap.add_argument("--list", action="store_true", help="list the scenes and exit")
     ap.add_argument("--one", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -589,7 +593,7 @@ def main(argv=None) -> int:
     if todo and not extra and any(s.extra for s in todo):
         ap.error("--scenes: give scenes of the halves or of the extra pool, not both (they are written to different files)")
     partial = args.quick or bool(args.scenes) or args.half != "all"
-    full = "rgb_only_extra.json" if extra else "rgb_only.json"
+    full = ("rgb_only_extra" if extra else "rgb_only") + ("_poses" if args.poses else "") + ".json"
     path = Path(args.json) if args.json else RESULTS / (full.replace(".json", ".partial.json") if partial and not args.merge and not (extra and args.half == "extra" and not args.scenes) else full)
     config = str(Path(args.config).resolve()) if args.config else None
     depth_config = str(Path(args.depth_config).resolve()) if args.depth_config else None
@@ -603,7 +607,7 @@ def main(argv=None) -> int:
     rows: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="bench-rgb-only-") as tmp:
         for spec in todo:
-            rows.append(run_scene(spec, Path(tmp), config, depth_config))
+            rows.append(run_scene(spec, Path(tmp), config, depth_config, "nodepth" if args.poses else "rgb"))
             _progress(rows[-1])
     if args.ycb:
         rows += run_ycb(config, depth_config)
@@ -611,6 +615,7 @@ def main(argv=None) -> int:
     rows = sorted(old_rows + rows, key=lambda r: (r.get("group") != "synthetic", order.get(r["scene"], 10**6), r["scene"]))
     payload = {
         "argv": list(sys.argv[1:] if argv is None else argv),
+        "rgb_mode": "nodepth" if args.poses else "rgb",
         "git": git_state(ROOT),
         "config_source": args.config or "Config.preset('rgbd')",
         "depth_config_source": args.depth_config or "Config.preset('rgbd')",

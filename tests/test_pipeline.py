@@ -21,10 +21,14 @@ def test_run_lifts_depth_only_scene_and_rejects_rgb_only():
     r = run(depth_only, cfg, segmenter="oracle-parts")
     assert r.num_objects == 2 and r.info["pipeline"]["lifter"] == "rgbd"
     assert run(scene, cfg, segmenter="oracle-parts").info["pipeline"]["lifter"] == "given"
-    rgb_only = Scene([v.replace(points=None, depth=None) for v in scene.views])
+    rgb_only = Scene([v.replace(points=None, depth=None, K=None, cam_to_world=None) for v in scene.views])
     # no depth: the sfm lifter is chosen; three flat-shaded box renders give it nothing to register
     with pytest.raises((SceneError, MissingDependencyError), match=r"structure from motion registered \d of 3 views|graphseg\[sfm\]"):
         run(rgb_only)
+    # with the cameras given nothing needs registering, but no feature matches to triangulate either
+    posed = Scene([v.replace(points=None, depth=None) for v in scene.views])
+    with pytest.raises((SceneError, MissingDependencyError), match=r"triangulated no point with the given cameras|graphseg\[sfm\]"):
+        run(posed)
 
 
 def test_backend_options_from_config_and_instances():

@@ -397,11 +397,72 @@ def test_an_unusual_focal_length_two_draws_agree_on_is_kept(arc_scene):
         np.testing.assert_array_equal(a, b)
 
 
-def test_lifter_metric_with_known_poses(arc_scene):
+def test_run_sfm_with_known_poses_triangulates_with_the_cameras_held(arc_scene):
+    views = arc_scene.views
+    poses = [v.cam_to_world for v in views]
+    kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
+    rec = run_sfm([v.rgb for v in views], [v.K for v in views], poses=poses, **kw)
+    assert rec.registered.tolist() == [True] * 6 and rec.info["poses"] == "given"
+    for T, g, K, v in zip(rec.cam_to_world, poses, rec.K, views):
+        assert np.array_equal(T, g) and T is not g  # exactly the given poses, copied
+        assert np.array_equal(K, v.K)
+    assert len(rec.points) > 100
+    # every observation reprojects onto its pixel through the given camera
+    for (xy, pid), T, K in zip(rec.observations, rec.cam_to_world, rec.K):
+        cam = (rec.points[pid] - T[:3, 3]) @ T[:3, :3]
+        uv = cam[:, :2] / cam[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+        assert cam[:, 2].min() > 0 and np.median(np.linalg.norm(uv - xy, axis=1)) < 1.0
+    # and the points lie on the true surfaces: depth of the observed pixels within 2%
+    errs = []
+    for (xy, pid), T, v in zip(rec.observations, rec.cam_to_world, views):
+        z = ((rec.points[pid] - T[:3, 3]) @ T[:3, :3])[:, 2]
+        px = np.rint(xy).astype(int)
+        d = v.depth[px[:, 1], px[:, 0]]
+        ok = d > 0
+        errs.append(np.abs(z[ok] - d[ok]) / d[ok])
+    assert np.median(np.concatenate(errs)) < 0.02
+
+
+@pytest.mark.parametrize("which", ["no K", "one pose short", "bad shape"])
+def test_known_poses_are_validated(arc_scene, which):
+    views = arc_scene.views
+    images, Ks, poses = [v.rgb for v in views], [v.K for v in views], [v.cam_to_world for v in views]
+    if which == "no K":
+        Ks = None
+    elif which == "one pose short":
+        poses = poses[:-1]
+    else:
+        poses = [T[:3] for T in poses]
+    kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
+    with pytest.raises(ValueError, match="K of every view" if which == "no K" else "pose for each of the 6 views"):
+        run_sfm(images, Ks, poses=poses, **kw)
+
+
+def test_lifter_uses_given_poses(arc_scene):
     bare = Scene([v.replace(depth=None) for v in arc_scene.views], arc_scene.objects, arc_scene.name)
     out = SfmLifter()(bare)
+    assert out.meta["scale"]["metric"] is True and out.meta["sfm"]["poses"] == "given"
+    assert "stereo_check" not in out.meta["sfm"] and "dropped_views" not in out.meta
+    for v, g in zip(out.views, arc_scene.views):
+        assert np.array_equal(v.cam_to_world, g.cam_to_world) and np.array_equal(v.K, g.K)
+        z = v.camera_points()[..., 2]
+        ok = np.isfinite(z) & (g.depth > 0)
+        assert ok.mean() > 0.3
+        assert np.median(np.abs(z[ok] - g.depth[ok]) / g.depth[ok]) < 0.02
+    assert bare.views[0].points is None  # input untouched
+    again = SfmLifter()(bare)  # the same photos and cameras give the same points
+    assert all(np.array_equal(a.points, b.points, equal_nan=True) and np.array_equal(a.confidence, b.confidence) for a, b in zip(out.views, again.views))
+    # without K the cameras are estimated, even where poses are given
+    no_k = Scene([v.replace(K=None) for v in bare.views], bare.objects, bare.name)
+    assert not SfmLifter().uses_given_poses(no_k) and not SfmLifter(use_poses=False).uses_given_poses(bare)
+
+
+def test_lifter_metric_with_known_poses(arc_scene):
+    bare = Scene([v.replace(depth=None) for v in arc_scene.views], arc_scene.objects, arc_scene.name)
+    out = SfmLifter(use_poses=False)(bare)
     scale = out.meta["scale"]
     assert scale["metric"] is True and scale["residual"] < 0.01
+    assert out.meta["sfm"]["poses"] == "estimated"
     for v, g in zip(out.views, arc_scene.views):
         assert v.points.shape == (240, 320, 3) and v.confidence.shape == (240, 320)
         assert np.linalg.norm(v.cam_to_world[:3, 3] - g.cam_to_world[:3, 3]) < 0.01

@@ -225,6 +225,7 @@ def run_sfm(
     fov_range: tuple[float, float] | None = None,
     redraws: int = 0,
     focal_starts: tuple[float, ...] = (),
+    poses: list[np.ndarray] | None = None,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
@@ -315,6 +316,12 @@ def run_sfm(
         stops in a local minimum near its start, so a single start from the
         prior (about 45 degrees) biases the focal length of a wider camera
         towards it (``docs/results.md``, round 25). ``()``: the prior only.
+    poses : list of float64 ``[4, 4]``, optional
+        Known camera-to-world poses (OpenCV axes), one per view; only with
+        ``K``. The cameras are then not estimated: the matched features are
+        triangulated with every camera held fixed
+        (COLMAP's point triangulator), and every view counts as registered.
+        ``fov_range``, ``redraws`` and ``focal_starts`` do not apply.
 
     Returns
     -------
@@ -356,6 +363,10 @@ def run_sfm(
     level = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = max(level, 3)  # COLMAP logs progress and "no model" errors; we report our own
     try:
+        if poses is not None:
+            if K is None or len(K) != len(images) or any(k is None for k in K):
+                raise ValueError("known poses need the intrinsics K of every view")
+            return _triangulate_known(pycolmap, cv2, images, K, poses, peak_threshold=peak_threshold, min_tri_angle=min_tri_angle, num_threads=num_threads, ransac_seed=ransac_seed)
         return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed, fov_range, redraws, tuple(focal_starts))
     finally:
         pycolmap.logging.minloglevel = level
@@ -575,6 +586,53 @@ def _run_sfm(
         if id(best) in records:
             out.info["focal_starts"] = records[id(best)][1]
         return out
+
+
+
+def _triangulate_known(
+    pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray], poses: list[np.ndarray], *, peak_threshold: float, min_tri_angle: float, num_threads: int, ransac_seed: int | None
+) -> SfmReconstruction:
+    """Features, exhaustive matches and COLMAP's point triangulator with every camera held at its given ``K`` and pose (see :func:`run_sfm`'s ``poses``).
+
+    Pooled SIFT (domain-size pooling, as the first draw of :func:`run_sfm`);
+    the two-view verification still filters the matches, and the
+    triangulator's own reprojection and angle checks drop matches that do not
+    fit the given cameras. No bundle adjustment: the poses and intrinsics stay
+    exactly as given. O(N^2) image pairs for N views.
+    """
+    n = len(images)
+    if len(poses) != n or any(T is None or np.asarray(T).shape != (4, 4) for T in poses):
+        raise ValueError(f"expected a [4, 4] pose for each of the {n} views")
+    names = [f"{i:04d}.png" for i in range(n)]
+    with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
+        root = Path(tmp)
+        (root / "images").mkdir()
+        for name, img in zip(names, images):
+            cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+        ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, 0, True, pooling=True)
+        db = root / "database.db"
+        _extract(pycolmap, root, db, names, K, True, "PINHOLE", ext, num_threads)
+        verify = _verification_options(pycolmap, ransac_seed)
+        if ransac_seed is not None:
+            match.num_threads = max(1, int(num_threads))
+        pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+        given = pycolmap.Reconstruction()
+        with pycolmap.Database.open(db) as d:
+            for cam in d.read_all_cameras():
+                given.add_camera_with_trivial_rig(cam)
+            for image in d.read_all_images():
+                w2c = np.linalg.inv(np.asarray(poses[names.index(image.name)], np.float64))
+                given.add_image_with_trivial_frame(pycolmap.Image(name=image.name, camera_id=image.camera_id, image_id=image.image_id), pycolmap.Rigid3d(w2c[:3, :4]))
+        out = root / "triangulated"
+        out.mkdir()
+        rec = pycolmap.triangulate_points(given, db, root / "images", out, options=inc, refine_intrinsics=False)
+        result = _convert(rec, names)
+    result.cam_to_world = [np.asarray(T, np.float64).copy() for T in poses]  # exactly as given (not through COLMAP's quaternions)
+    result.K = [np.asarray(k, np.float64).copy() for k in K]
+    result.dist = [np.zeros(5) for _ in range(n)]
+    result.registered = np.ones(n, bool)
+    result.info["poses"] = "given"
+    return result
 
 
 #: Seeds of COLMAP's RANSAC lie in 0 .. 2**31 - 2.
@@ -1131,6 +1189,15 @@ class SfmLifter(Backend):
         ``meta["sfm"]["stereo_check"]`` records the coverage of every tested
         view; ``meta["sfm"]["registered"]`` still counts what structure from
         motion registered. Needs ``stereo``; 0 turns it off.
+    use_poses : bool
+        When every view has ``K`` and ``cam_to_world`` (a robot's or a
+        tracker's cameras, depth missing), the cameras are taken as given:
+        structure from motion only triangulates the matched features with
+        them held fixed (:func:`run_sfm`'s ``poses``), stereo runs on the
+        given poses, the result is metric, and the stereo check does not run
+        (``meta["sfm"]["poses"]`` is ``"given"``). False estimates the
+        cameras as for photos alone and then aligns them to the given poses
+        (a similarity, :func:`scale_reconstruction`).
     seed : int
         Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
@@ -1164,6 +1231,7 @@ class SfmLifter(Backend):
         focal_starts: tuple[float, ...] = Field(
             (), max_length=6, description="fields of view (degrees across the larger side) the focal length also starts from without intrinsics; the model with the most views and observations and the lowest reprojection error replaces the prior's when its focal length differs by more than 10% (): COLMAP's prior only"
         )
+        use_poses: bool = Field(True, description="with K and a pose for every view, triangulate with those cameras held fixed instead of estimating them")
         stereo_check: float = Field(
             STEREO_CHECK, ge=0, lt=1, description="a view whose dense stereo covers less than this share of the other views' median is taken as wrongly posed and left out (4 or more views with a stereo neighbour, 3 always kept, the others' median at least 5%; 0: no check)"
         )
@@ -1211,15 +1279,25 @@ class SfmLifter(Backend):
             }
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
-        """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register."""
+        """SfM plus scale; raises :class:`SceneError` when fewer than 2 views register (with given cameras: when no point is triangulated)."""
         n = len(scene)
         given = [v.K for v in scene.views]
         Ks = [np.asarray(k) for k in given if k is not None]
+        if self.uses_given_poses(scene):
+            kw = {k: v for k, v in self.options.run_sfm_kwargs().items() if k in ("peak_threshold", "min_tri_angle", "seed", "camera_model", "num_threads", "ransac_seed")}
+            rec = run_sfm([v.rgb for v in scene.views], Ks, poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views], **kw)
+            if not len(rec.points):
+                raise SceneError("structure from motion triangulated no point with the given cameras: no feature matched across the views (too little texture or overlap)", where=scene.name, field="views")
+            return rec, {"metric": True, "factor": 1.0, "method": "the given poses and intrinsics, held fixed (use_poses)"}
         rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, **self.options.run_sfm_kwargs())
         if rec.num_registered < 2 or n < 2:
             missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
             raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")
         return scale_reconstruction(rec, scene)
+
+    def uses_given_poses(self, scene: Scene) -> bool:
+        """Whether the cameras of ``scene`` are taken as given (``use_poses`` and every view with ``K`` and ``cam_to_world``)."""
+        return bool(self.options.use_poses) and len(scene) >= 2 and all(v.K is not None and v.cam_to_world is not None for v in scene.views)
 
     def __call__(self, scene: Scene) -> Scene:
         """The lifted scene of the registered views.
@@ -1237,7 +1315,7 @@ class SfmLifter(Backend):
         if unregistered.size:
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
-        bad, check = self._stereo_check(lifted, rec)
+        bad, check = self._stereo_check(lifted, rec) if rec.info.get("poses") != "given" else (np.zeros(0, np.int64), None)  # given poses are not estimates to check
         if check is not None:  # the other views' stereo again, without the wrongly posed views as neighbours
             kept = np.setdiff1d(np.arange(len(scene)), bad)
             scene, rec = scene.select(kept.tolist()), rec.select(kept)
@@ -1333,6 +1411,7 @@ class SfmLifter(Backend):
                 "views": len(scene),
                 "points": int(len(rec.points)),
                 "reprojection_error": rec.reprojection_error,
+                "poses": rec.info.get("poses", "estimated"),
                 **({"focal_check": rec.info["focal_check"]} if "focal_check" in rec.info else {}),
                 **({"focal_starts": rec.info["focal_starts"]} if "focal_starts" in rec.info else {}),
                 **info,
