@@ -9,11 +9,14 @@ pytest.importorskip("pybullet")
 from graphseg.backends.lifters.align import umeyama  # noqa: E402
 from graphseg.backends.lifters.sfm import (  # noqa: E402
     FOCAL_STARTS,
+    MIN_SPAN,
     NOMINAL_DISTANCE,
     SfmLifter,
+    camera_span,
     choose_start,
     focal_check_warning,
     run_sfm,
+    short_baseline_warning,
     stereo_check_warning,
     stereo_outliers,
 )
@@ -671,6 +674,42 @@ def test_a_wrongly_posed_view_is_left_out(arc_scene, monkeypatch):
         f"structure from motion registered {len(arc_scene)} of {len(arc_scene) + 1} views; segmenting {len(arc_scene) - 1} of those (see below), without: blank",
         stereo_check_warning(check),
     ]
+
+
+def test_camera_span_by_hand_and_edge_cases():
+    T = [np.eye(4) for _ in range(3)]
+    T[1][:3, 3] = [0.3, 0.0, 0.0]
+    T[2][:3, 3] = [0.0, 0.4, 0.0]  # the longest baseline: 0.5 between cameras 1 and 2
+    span, b = camera_span(T, 0.5)
+    assert b == pytest.approx(0.5) and span == pytest.approx(2 * np.degrees(np.arctan(0.5)))  # 53.13 degrees
+    assert np.isnan(camera_span([T[0]], 1.0)[0]) and np.isnan(camera_span([T[0], None, T[1]], 0.0)[0])
+    assert camera_span([T[0], None, T[1]], 0.3)[1] == pytest.approx(0.3)  # unregistered views are skipped
+
+
+def test_cameras_close_together_give_one_warning_line(arc_scene, monkeypatch):
+    """YCB-Video's camera moves 1 cm at 1.2 m (0.5 degrees): depth from it is unreliable, and the lifter says so."""
+    from graphseg.backends.lifters import sfm
+
+    scene = rgb_only(arc_scene, keep_intrinsics=False)
+    assert not any("degrees apart" in w for w in SfmLifter()(scene).meta.get("warnings", []))  # the 50-degree arc
+    real = sfm.run_sfm
+
+    def close(*args, **kwargs):
+        rec = real(*args, **kwargs)
+        c0 = rec.cam_to_world[0][:3, 3].copy()
+        for T in rec.cam_to_world:
+            T[:3, 3] = c0 + 0.01 * (T[:3, 3] - c0)  # every camera a hundred times closer to the first
+        return rec
+
+    monkeypatch.setattr(sfm, "run_sfm", close)
+    warnings = [w for w in SfmLifter(stereo_check=0.0)(scene).meta["warnings"] if "degrees apart" in w]
+    assert len(warnings) == 1 and warnings[0].startswith("the cameras are at most ")
+    assert float(warnings[0].split()[5]) < MIN_SPAN and warnings[0].endswith("take the views 5-20 degrees apart")
+
+
+def test_short_baseline_warning_names_the_numbers():
+    line = short_baseline_warning(0.4771, 0.01, 1.2)
+    assert line.startswith("the cameras are at most 0.48 degrees apart as seen from the scene (0.01 apart at 1.2 from it)")
 
 
 def test_lifter_keeps_registered_views_only(arc_scene):

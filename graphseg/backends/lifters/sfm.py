@@ -61,6 +61,9 @@ __all__ = [
     "STEREO_CHECK_FLOOR",
     "FOCAL_STARTS",
     "START_MIN_OBSERVATIONS",
+    "MIN_SPAN",
+    "camera_span",
+    "short_baseline_warning",
 ]
 
 #: Default share of the other views' median dense-stereo coverage below which a view's pose is taken as wrong.
@@ -77,6 +80,10 @@ START_MIN_OBSERVATIONS = 0.8
 
 #: The other views' median coverage below which the stereo check says nothing (stereo fails everywhere).
 STEREO_CHECK_FLOOR = 0.05
+
+#: Degrees: cameras spread over less than this, as seen from the scene, give stereo and
+#: triangulation too little parallax (YCB-Video's 1 cm at 1.2 m is 0.5); the lifter warns.
+MIN_SPAN = 2.0
 
 #: COLMAP camera models the ``sfm`` lifter may estimate (one camera shared by all views).
 CAMERA_MODELS = ("SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV")
@@ -494,6 +501,50 @@ def stereo_outliers(fractions: Any, tested: Any, ratio: float = STEREO_CHECK, *,
     if len(f) - len(out) < 3:
         return np.zeros(0, np.int64)
     return np.asarray(out, np.int64)
+
+
+def camera_span(cam_to_world: Any, distance: float) -> tuple[float, float]:
+    """How far apart the cameras are as seen from the scene: the largest angle two camera centres subtend at ``distance``.
+
+    Parameters
+    ----------
+    cam_to_world : sequence of ``[4, 4]`` (None entries are skipped)
+    distance : float
+        The camera-to-scene distance, in the poses' units (the lifter uses
+        the median camera-to-point distance of the triangulated points).
+
+    Returns
+    -------
+    (float, float)
+        The angle in degrees, ``2 atan(b / (2 distance))`` for the longest
+        baseline ``b``, and ``b`` itself. O(N^2) for N cameras.
+
+    Examples
+    --------
+    >>> T = [np.eye(4), np.eye(4)]
+    >>> T[1][0, 3] = 0.01                       # 1 cm apart, 1.2 m from the scene
+    >>> tuple(round(x, 3) for x in camera_span(T, 1.2))
+    (0.477, 0.01)
+    """
+    c = np.array([np.asarray(T, np.float64)[:3, 3] for T in cam_to_world if T is not None]).reshape(-1, 3)
+    if len(c) < 2 or not np.isfinite(distance) or distance <= 0:
+        return float("nan"), float("nan")
+    b = float(np.max(np.linalg.norm(c[:, None] - c[None], axis=-1)))
+    return float(np.degrees(2.0 * np.arctan2(0.5 * b, float(distance)))), b
+
+
+def short_baseline_warning(span: float, baseline: float, distance: float) -> str:
+    """The one warning line for cameras closer together than :data:`MIN_SPAN` (see :func:`camera_span`).
+
+    Examples
+    --------
+    >>> short_baseline_warning(0.477, 0.01, 1.2)
+    'the cameras are at most 0.48 degrees apart as seen from the scene (0.01 apart at 1.2 from it): stereo and triangulation need a few degrees, so depth is unreliable; take the views 5-20 degrees apart'
+    """
+    return (
+        f"the cameras are at most {span:.2f} degrees apart as seen from the scene ({baseline:.3g} apart at {distance:.3g} from it): "
+        "stereo and triangulation need a few degrees, so depth is unreliable; take the views 5-20 degrees apart"
+    )
 
 
 def stereo_check_warning(check: dict[str, Any]) -> str:
@@ -1323,6 +1374,10 @@ class SfmLifter(Backend):
             lifted.meta["sfm"]["registered"] = len(keep)  # what structure from motion registered; the views kept are the scene's
             lifted.meta["sfm"]["stereo_check"] = check
         notes = [focal_check_warning(rec.info.get("focal_check"))]
+        distance = _median_distance(rec)
+        span, baseline = camera_span(rec.cam_to_world, distance)
+        if span < MIN_SPAN:
+            notes.append(short_baseline_warning(span, baseline, distance))
         if unregistered.size:
             notes.append(
                 f"structure from motion registered {len(keep)} of {len(names)} views; "
