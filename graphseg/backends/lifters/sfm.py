@@ -13,9 +13,12 @@ neighbour view is close enough, and the triangulated SfM points elsewhere.
 
 Scale
 -----
-SfM recovers the scene only up to a similarity. When every view has a pose,
-the SfM camera centres are aligned to them (:func:`graphseg.backends.lifters.align.umeyama`)
-and the result is metric. Otherwise the reconstruction is scaled so that the
+SfM recovers the scene only up to a similarity. When every view has ``K``
+and a pose, the cameras are taken as given (option ``use_poses``): the
+features are triangulated with them held fixed, and the result is metric.
+When every view has a pose but the cameras are estimated (no ``K``, or
+``use_poses`` off), the SfM camera centres are aligned to the poses
+(:func:`graphseg.backends.lifters.align.umeyama`) and the result is metric. Otherwise the reconstruction is scaled so that the
 median camera-to-point distance equals :data:`NOMINAL_DISTANCE` (0.6 m, a
 tabletop / wrist-camera working distance), so the metre thresholds of the
 config apply at about the right size. ``scene.meta["scale"]`` records
