@@ -410,11 +410,12 @@ def test_run_sfm_with_known_poses_triangulates_with_the_cameras_held(arc_scene):
         assert np.array_equal(T, g) and T is not g  # exactly the given poses, copied
         assert np.array_equal(K, v.K)
     assert len(rec.points) > 100
-    # every observation reprojects onto its pixel through the given camera
+    # every observation reprojects onto its pixel through the given camera, with no half-pixel bias
     for (xy, pid), T, K in zip(rec.observations, rec.cam_to_world, rec.K):
         cam = (rec.points[pid] - T[:3, 3]) @ T[:3, :3]
         uv = cam[:, :2] / cam[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
-        assert cam[:, 2].min() > 0 and np.median(np.linalg.norm(uv - xy, axis=1)) < 1.0
+        assert cam[:, 2].min() > 0 and np.median(np.linalg.norm(uv - xy, axis=1)) < 0.5
+        assert np.abs(np.mean(uv - xy, axis=0)).max() < 0.1
     # and the points lie on the true surfaces: depth of the observed pixels within 2%
     errs = []
     for (xy, pid), T, v in zip(rec.observations, rec.cam_to_world, views):
@@ -426,7 +427,7 @@ def test_run_sfm_with_known_poses_triangulates_with_the_cameras_held(arc_scene):
     assert np.median(np.concatenate(errs)) < 0.02
 
 
-@pytest.mark.parametrize("which", ["no K", "one pose short", "bad shape"])
+@pytest.mark.parametrize("which", ["no K", "one pose short", "bad shape", "NaN pose", "inf K"])
 def test_known_poses_are_validated(arc_scene, which):
     views = arc_scene.views
     images, Ks, poses = [v.rgb for v in views], [v.K for v in views], [v.cam_to_world for v in views]
@@ -434,18 +435,47 @@ def test_known_poses_are_validated(arc_scene, which):
         Ks = None
     elif which == "one pose short":
         poses = poses[:-1]
-    else:
+    elif which == "bad shape":
         poses = [T[:3] for T in poses]
+    elif which == "NaN pose":
+        poses = [*poses[:2], np.full((4, 4), np.nan), *poses[3:]]
+    else:
+        K4 = Ks[4].copy()
+        K4[0, 0] = np.inf
+        Ks = [*Ks[:4], K4, Ks[5]]
     kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
-    with pytest.raises(ValueError, match="K of every view" if which == "no K" else "pose for each of the 6 views"):
+    match = {"no K": "K of every view", "NaN pose": "view 2: expected a finite K and pose", "inf K": "view 4: expected a finite K and pose"}.get(which, "pose for each of the 6 views")
+    with pytest.raises(ValueError, match=match):
         run_sfm(images, Ks, poses=poses, **kw)
 
 
-def test_lifter_uses_given_poses(arc_scene):
+def test_known_poses_two_views_and_a_camera_of_each_own(arc_scene):
+    """Two views triangulate (their features are seen in two views only), and views with different K keep theirs."""
+    views = arc_scene.views[:2]
+    kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
+    # the second image shifted by (9, -5) px, its principal point moved with it: another camera, the same rays
+    rgb1 = np.roll(views[1].rgb, (-5, 9), axis=(0, 1))
+    K1 = views[1].K.copy()
+    K1[0, 2] += 9
+    K1[1, 2] -= 5
+    rec = run_sfm([views[0].rgb, rgb1], [views[0].K, K1], poses=[v.cam_to_world for v in views], **kw)
+    assert len(rec.points) > 50 and np.array_equal(rec.K[1], K1) and np.array_equal(rec.K[0], views[0].K)
+    for (xy, pid), T, K in zip(rec.observations, rec.cam_to_world, rec.K):
+        cam = (rec.points[pid] - T[:3, 3]) @ T[:3, :3]
+        uv = cam[:, :2] / cam[:, 2:] * [K[0, 0], K[1, 1]] + K[:2, 2]
+        assert np.median(np.linalg.norm(uv - xy, axis=1)) < 0.5
+    (xy, pid), T = rec.observations[0], rec.cam_to_world[0]
+    z = ((rec.points[pid] - T[:3, 3]) @ T[:3, :3])[:, 2]
+    px = np.rint(xy).astype(int)
+    d = views[0].depth[px[:, 1], px[:, 0]]
+    ok = d > 0
+    assert np.median(np.abs(z[ok] - d[ok]) / d[ok]) < 0.02
+
+
+def test_lifter_uses_given_poses(arc_scene, monkeypatch):
     bare = Scene([v.replace(depth=None) for v in arc_scene.views], arc_scene.objects, arc_scene.name)
     out = SfmLifter()(bare)
     assert out.meta["scale"]["metric"] is True and out.meta["sfm"]["poses"] == "given"
-    assert "stereo_check" not in out.meta["sfm"] and "dropped_views" not in out.meta
     for v, g in zip(out.views, arc_scene.views):
         assert np.array_equal(v.cam_to_world, g.cam_to_world) and np.array_equal(v.K, g.K)
         z = v.camera_points()[..., 2]
@@ -455,6 +485,14 @@ def test_lifter_uses_given_poses(arc_scene):
     assert bare.views[0].points is None  # input untouched
     again = SfmLifter()(bare)  # the same photos and cameras give the same points
     assert all(np.array_equal(a.points, b.points, equal_nan=True) and np.array_equal(a.confidence, b.confidence) for a, b in zip(out.views, again.views))
+    # given poses are not checked by stereo: a check that would drop view 0 drops nothing
+    from graphseg.backends.lifters import sfm
+
+    monkeypatch.setattr(sfm, "stereo_outliers", lambda *a, **k: np.array([0]))
+    kept = SfmLifter()(bare)
+    assert len(kept) == len(arc_scene) and "stereo_check" not in kept.meta["sfm"] and "dropped_views" not in kept.meta
+    estimated = SfmLifter(use_poses=False)(bare)  # the same check on estimated poses does drop it
+    assert estimated.meta["dropped_views"] == [arc_scene.views[0].name]
     # without K the cameras are estimated, even where poses are given
     no_k = Scene([v.replace(K=None) for v in bare.views], bare.objects, bare.name)
     assert not SfmLifter().uses_given_poses(no_k) and not SfmLifter(use_poses=False).uses_given_poses(bare)

@@ -18,7 +18,8 @@ and a pose, the cameras are taken as given (option ``use_poses``): the
 features are triangulated with them held fixed, and the result is metric.
 When every view has a pose but the cameras are estimated (no ``K``, or
 ``use_poses`` off), the SfM camera centres are aligned to the poses
-(:func:`graphseg.backends.lifters.align.umeyama`) and the result is metric. Otherwise the reconstruction is scaled so that the
+(:func:`graphseg.backends.lifters.align.umeyama`) and the result is metric
+(with 3 or more registered views). Otherwise the reconstruction is scaled so that the
 median camera-to-point distance equals :data:`NOMINAL_DISTANCE` (0.6 m, a
 tabletop / wrist-camera working distance), so the metre thresholds of the
 config apply at about the right size. ``scene.meta["scale"]`` records
@@ -330,8 +331,10 @@ def run_sfm(
         Known camera-to-world poses (OpenCV axes), one per view; only with
         ``K``. The cameras are then not estimated: the matched features are
         triangulated with every camera held fixed
-        (COLMAP's point triangulator), and every view counts as registered.
-        ``fov_range``, ``redraws`` and ``focal_starts`` do not apply.
+        (COLMAP's point triangulator; features seen in two views count), and every view counts as registered.
+        ``fov_range``, ``redraws`` and ``focal_starts`` do not apply. The result
+        then has ``info["poses"] == "given"``, the given ``K`` and poses
+        (copies) and no distortion.
 
     Returns
     -------
@@ -651,12 +654,18 @@ def _triangulate_known(
     Pooled SIFT (domain-size pooling, as the first draw of :func:`run_sfm`);
     the two-view verification still filters the matches, and the
     triangulator's own reprojection and angle checks drop matches that do not
-    fit the given cameras. No bundle adjustment: the poses and intrinsics stay
-    exactly as given. O(N^2) image pairs for N views.
+    fit the given cameras. A feature seen in two views only is triangulated
+    too (COLMAP's mapper ignores such tracks; here the cameras need no
+    support from them, and a 2-view scene has no others). Bundle adjustment
+    refines the points only: the poses and intrinsics stay exactly as given.
+    O(N^2) image pairs for N views.
     """
     n = len(images)
     if len(poses) != n or any(T is None or np.asarray(T).shape != (4, 4) for T in poses):
         raise ValueError(f"expected a [4, 4] pose for each of the {n} views")
+    bad = [i for i in range(n) if not (np.isfinite(np.asarray(poses[i], np.float64)).all() and np.isfinite(np.asarray(K[i], np.float64)).all())]
+    if bad:
+        raise ValueError(f"view {bad[0]}: expected a finite K and pose (got NaN or inf)")
     names = [f"{i:04d}.png" for i in range(n)]
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
@@ -664,6 +673,7 @@ def _triangulate_known(
         for name, img in zip(names, images):
             cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
         ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, 0, True, pooling=True)
+        inc.triangulation.ignore_two_view_tracks = False
         db = root / "database.db"
         _extract(pycolmap, root, db, names, K, True, "PINHOLE", ext, num_threads)
         verify = _verification_options(pycolmap, ransac_seed)
@@ -1249,9 +1259,11 @@ class SfmLifter(Backend):
         structure from motion only triangulates the matched features with
         them held fixed (:func:`run_sfm`'s ``poses``), stereo runs on the
         given poses, the result is metric, and the stereo check does not run
-        (``meta["sfm"]["poses"]`` is ``"given"``). False estimates the
-        cameras as for photos alone and then aligns them to the given poses
-        (a similarity, :func:`scale_reconstruction`).
+        (``meta["sfm"]["poses"]`` is ``"given"``). False estimates the poses
+        by structure from motion (the given ``K`` still held fixed) and then
+        aligns the camera centres to the given poses by a similarity
+        (:func:`scale_reconstruction`; metric with 3 or more registered
+        views, the nominal scale otherwise).
     seed : int
         Seed of COLMAP's incremental mapper (None: 0; :func:`run_sfm`).
     """
@@ -1341,7 +1353,11 @@ class SfmLifter(Backend):
             kw = {k: v for k, v in self.options.run_sfm_kwargs().items() if k in ("peak_threshold", "min_tri_angle", "seed", "camera_model", "num_threads", "ransac_seed")}
             rec = run_sfm([v.rgb for v in scene.views], Ks, poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views], **kw)
             if not len(rec.points):
-                raise SceneError("structure from motion triangulated no point with the given cameras: no feature matched across the views (too little texture or overlap)", where=scene.name, field="views")
+                raise SceneError(
+                    "structure from motion triangulated no point with the given cameras (too little texture or overlap, or wrong poses); give depth, or sfm.use_poses=false to estimate the cameras",
+                    where=scene.name,
+                    field="views",
+                )
             return rec, {"metric": True, "factor": 1.0, "method": "the given poses and intrinsics, held fixed (use_poses)"}
         rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, **self.options.run_sfm_kwargs())
         if rec.num_registered < 2 or n < 2:
