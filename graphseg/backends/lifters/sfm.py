@@ -212,6 +212,21 @@ def _colmap_options(pycolmap: Any, peak_threshold: float, min_tri_angle: float, 
     return ext, match, inc
 
 
+def _write_images(cv2: Any, root: Path, names: list[str], images: list[np.ndarray]) -> None:
+    """The RGB ``images`` as ``root/images/<name>`` (COLMAP reads files)."""
+    (root / "images").mkdir()
+    for name, img in zip(names, images):
+        cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+
+
+def _match(pycolmap: Any, db: Path, match: Any, ransac_seed: int | None, num_threads: int) -> None:
+    """Exhaustive matching and two-view verification of the features in ``db`` (:func:`_verification_options`)."""
+    verify = _verification_options(pycolmap, ransac_seed)
+    if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
+        match.num_threads = max(1, int(num_threads))
+    pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+
+
 def _verification_options(pycolmap: Any, ransac_seed: int | None) -> Any:
     """COLMAP's two-view verification options; ``ransac_seed`` seeds every pair's RANSAC (None: COLMAP's default, -1)."""
     verify = pycolmap.TwoViewGeometryOptions()
@@ -597,9 +612,7 @@ def _run_sfm(
     base_seed = 0 if ransac_seed is None else int(ransac_seed)
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
-        (root / "images").mkdir()
-        for name, img in zip(names, images):
-            cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+        _write_images(cv2, root, names, images)
 
         records: dict[int, tuple[Any, dict[str, Any]]] = {}  # each model built with its focal-length starts, by id
 
@@ -645,7 +658,6 @@ def _run_sfm(
         return out
 
 
-
 def _triangulate_known(
     pycolmap: Any, cv2: Any, images: list[np.ndarray], K: list[np.ndarray], poses: list[np.ndarray], *, peak_threshold: float, min_tri_angle: float, num_threads: int, ransac_seed: int | None
 ) -> SfmReconstruction:
@@ -669,17 +681,12 @@ def _triangulate_known(
     names = [f"{i:04d}.png" for i in range(n)]
     with tempfile.TemporaryDirectory(prefix="graphseg-sfm-") as tmp:
         root = Path(tmp)
-        (root / "images").mkdir()
-        for name, img in zip(names, images):
-            cv2.imwrite(str(root / "images" / name), cv2.cvtColor(np.ascontiguousarray(img), cv2.COLOR_RGB2BGR))
+        _write_images(cv2, root, names, images)
         ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, 0, True, pooling=True)
         inc.triangulation.ignore_two_view_tracks = False
         db = root / "database.db"
         _extract(pycolmap, root, db, names, K, True, "PINHOLE", ext, num_threads)
-        verify = _verification_options(pycolmap, ransac_seed)
-        if ransac_seed is not None:
-            match.num_threads = max(1, int(num_threads))
-        pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+        _match(pycolmap, db, match, ransac_seed, num_threads)
         given = pycolmap.Reconstruction()
         with pycolmap.Database.open(db) as d:
             for cam in d.read_all_cameras():
@@ -851,10 +858,7 @@ def _map(
                 shutil.copyfile(db, features)
         if hold:  # no matched database to reuse: the whole draw, held
             _hold_prior_focal(pycolmap, db, inc)
-        verify = _verification_options(pycolmap, ransac_seed)
-        if ransac_seed is not None:  # every pair's RANSAC seeded on its own: the thread count no longer matters
-            match.num_threads = max(1, int(num_threads))
-        pycolmap.match_exhaustive(db, matching_options=match, verification_options=verify, device=pycolmap.Device.cpu)
+        _match(pycolmap, db, match, ransac_seed, num_threads)
     best = _incremental(pycolmap, root, db, tag, inc, seed, attempts, n)
     if not starts or known or hold or best is None:
         return best
@@ -1350,8 +1354,7 @@ class SfmLifter(Backend):
         given = [v.K for v in scene.views]
         Ks = [np.asarray(k) for k in given if k is not None]
         if self.uses_given_poses(scene):
-            kw = {k: v for k, v in self.options.run_sfm_kwargs().items() if k in ("peak_threshold", "min_tri_angle", "seed", "camera_model", "num_threads", "ransac_seed")}
-            rec = run_sfm([v.rgb for v in scene.views], Ks, poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views], **kw)
+            rec = run_sfm([v.rgb for v in scene.views], Ks, poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views], **self.options.run_sfm_kwargs())
             if not len(rec.points):
                 raise SceneError(
                     "structure from motion triangulated no point with the given cameras (too little texture or overlap, or wrong poses); give depth, or sfm.use_poses=false to estimate the cameras",
@@ -1385,7 +1388,7 @@ class SfmLifter(Backend):
         if unregistered.size:
             scene, rec = scene.select(keep.tolist()), rec.select(keep)
         lifted = self.point_maps(scene, rec, scale)
-        bad, check = self._stereo_check(lifted, rec) if rec.info.get("poses") != "given" else (np.zeros(0, np.int64), None)  # given poses are not estimates to check
+        bad, check = self._stereo_check(lifted, rec)
         if check is not None:  # the other views' stereo again, without the wrongly posed views as neighbours
             kept = np.setdiff1d(np.arange(len(scene)), bad)
             scene, rec = scene.select(kept.tolist()), rec.select(kept)
@@ -1422,7 +1425,7 @@ class SfmLifter(Backend):
         o = self.options
         frac = lifted.meta["sfm"].get("dense_fraction")
         none = np.zeros(0, np.int64)
-        if not o.stereo or not o.stereo_check or frac is None:
+        if not o.stereo or not o.stereo_check or frac is None or rec.info.get("poses") == "given":  # given poses are not estimates to check
             return none, None
         tested = np.array([len(nb) > 0 for nb in select_neighbours(rec.cam_to_world, max_angle=o.max_pair_angle, max_neighbours=o.max_neighbours)])
         bad = stereo_outliers(frac, tested, o.stereo_check)
