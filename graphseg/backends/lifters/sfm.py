@@ -688,11 +688,12 @@ def _triangulate_known(
         _extract(pycolmap, root, db, names, K, True, "PINHOLE", ext, num_threads)
         _match(pycolmap, db, match, ransac_seed, num_threads)
         given = pycolmap.Reconstruction()
+        view_of = {name: i for i, name in enumerate(names)}
         with pycolmap.Database.open(db) as d:
             for cam in d.read_all_cameras():
                 given.add_camera_with_trivial_rig(cam)
             for image in d.read_all_images():
-                w2c = np.linalg.inv(np.asarray(poses[names.index(image.name)], np.float64))
+                w2c = np.linalg.inv(np.asarray(poses[view_of[image.name]], np.float64))
                 given.add_image_with_trivial_frame(pycolmap.Image(name=image.name, camera_id=image.camera_id, image_id=image.image_id), pycolmap.Rigid3d(w2c[:3, :4]))
         out = root / "triangulated"
         out.mkdir()
