@@ -22,7 +22,8 @@ split alone; ``"rgbd, one split grid"``, the split without its fine 5 mm pass;
 ``"rgbd, no mask snap"``, rgbd without giving the pixels the voxel border cut off a mask back;
 ``"rgbd, no mask join"``, rgbd without joining the pieces its masks hold together (``split.mask_join``);
 ``"rgbd + rim growing"``, rgbd with the unlabelled pixels at each object's rim given to it up to the colour edge (``grow``, the ``grow`` column);
-``"rgbd + borders drawn again"``, rgbd with the minimum cut that draws each split border again, ``split.settle_band`` 3).
+``"rgbd + borders drawn again"``, rgbd with the minimum cut that draws each split border again, ``split.settle_band`` 3;
+``"rgbd + rim growing + borders drawn again"``, both).
 
 Usage: python benchmarks/bench_presets.py [--presets rgbd paper robust "robust + refine" "robust, gaec"] [--repeat 3] [--json PATH]
 """
@@ -57,6 +58,7 @@ VARIANTS = {
     "rgbd, no mask join": lambda: Config.preset("rgbd", split={"mask_join": None}),
     "rgbd + rim growing": lambda: Config.preset("rgbd", grow={"enabled": True}),
     "rgbd + borders drawn again": lambda: Config.preset("rgbd", split={"settle_band": 3}),
+    "rgbd + rim growing + borders drawn again": lambda: Config.preset("rgbd", grow={"enabled": True}, split={"settle_band": 3}),
     "robust without split": lambda: Config.preset("robust", split={"enabled": False}),
 }
 

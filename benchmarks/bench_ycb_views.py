@@ -94,6 +94,7 @@ def variants() -> dict[str, Config]:
         "rgbd, no mask join": Config.preset("rgbd", split={"mask_join": None}),
         "rgbd + rim growing": Config.preset("rgbd", grow={"enabled": True}),
         "rgbd + borders drawn again": Config.preset("rgbd", split={"settle_band": 3}),
+        "rgbd + rim growing + borders drawn again": Config.preset("rgbd", grow={"enabled": True}, split={"settle_band": 3}),
         "rgbd, split without merge": _split("rgbd", enabled=True, merge_ncut=None),
         "rgbd, split with mask guard 0.8 / 0.5": _split("rgbd", enabled=True, own_fraction=0.8, own_cover=0.5),
         "robust": Config.preset("robust"),
