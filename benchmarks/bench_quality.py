@@ -22,7 +22,7 @@ over scenes.
 Targets (issue 4): synthetic mean IoU >= 0.80, F1 >= 0.88, pixel utility >=
 0.95; YCB-Video mean IoU >= 0.75; oracle-parts k = 1..4 IoU >= 0.95.
 
-Usage: python benchmarks/bench_quality.py [--quick] [--json PATH] [--config FILE]
+Usage: python benchmarks/bench_quality.py [--quick] [--json PATH] [--config FILE [--base PRESET]]
 """
 
 from __future__ import annotations
@@ -74,11 +74,14 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="3 synthetic scenes only")
     ap.add_argument("--config", help="config file (replaces the presets)")
+    ap.add_argument("--base", help="preset that --config is loaded over (default: Config(), the paper's values)")
     ap.add_argument("--presets", nargs="+", default=["rgbd", "paper"], help="Config.preset names to compare")
     ap.add_argument("--json", default="benchmarks/results/quality.json")
     ap.add_argument("--matchers", nargs="*", default=["flow", "sift"], help="other matchers to compare with the default segmenter and the first preset")
     args = ap.parse_args(argv)
-    bases = {"config": Config.load(args.config)} if args.config else {p: Config.preset(p) for p in args.presets}
+    if args.base and not args.config:
+        ap.error("--base needs --config")
+    bases = {"config": Config.load(args.config, base=Config.preset(args.base) if args.base else None)} if args.config else {p: Config.preset(p) for p in args.presets}
     variants = {}
     for pname, cfg in bases.items():
         variants[f"GraphSeg [{pname}]"] = cfg
