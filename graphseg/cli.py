@@ -100,10 +100,18 @@ class ArgumentParser(argparse.ArgumentParser):
         self.exit(2)
 
     def _check_value(self, action: argparse.Action, value: Any) -> None:
+        """An invalid choice as one line: ``--preset: invalid choice 'robsut'; did you mean 'robust'? (choose from ...)``.
+
+        A subcommand reads ``unknown command 'rnu'; did you mean 'run'? (commands: run, ...)``
+        (the hint only when one is close, :func:`difflib.get_close_matches`).
+        """
         if action.choices is not None and value not in action.choices:
             choices = [str(c) for c in action.choices]
             hint = _did_you_mean(str(value), choices)
-            raise argparse.ArgumentError(action, f"invalid choice {value!r}; " + (f"{hint} " if hint else "") + f"(choose from {', '.join(choices)})")
+            hint = f"; {hint}" if hint else ""
+            if isinstance(action, argparse._SubParsersAction):  # no "argument command:" prefix
+                raise argparse.ArgumentError(None, f"unknown command {value!r}{hint} (commands: {', '.join(choices)})")
+            raise argparse.ArgumentError(action, f"invalid choice {value!r}{hint} (choose from {', '.join(choices)})")
 
     def parse_args(self, args: Sequence[str] | None = None, namespace: Any = None) -> Any:  # type: ignore[override]
         ns, extras = self.parse_known_args(args, namespace)
@@ -386,7 +394,7 @@ def _config(args: argparse.Namespace) -> Any:
         _check_backend_name(name)
         cfg = _with_backend_options(cfg, name, **{key: value})
     if getattr(args, "method", None):
-        cfg = cfg.model_copy(update={"method": args.method})
+        cfg = Config.model_validate({**cfg.model_dump(), "method": args.method})  # validated: the method's stages
     if getattr(args, "masks", None):
         folder = Path(args.masks)
         if not folder.is_dir():
@@ -720,7 +728,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             try:
                 m = json.loads(mj.read_text(encoding="utf-8"))["mean"]
                 print("  mean: " + ", ".join(f"{k}={v:.4g}" for k, v in m.items() if isinstance(v, (int, float))))
-            except (ValueError, KeyError, TypeError, AttributeError) as err:
+            except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as err:
                 raise BadInput(f"{mj}: metrics.json: malformed ({type(err).__name__})") from err
         return 0
     fmt = detect_format(p)

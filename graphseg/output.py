@@ -81,6 +81,7 @@ from typing import Any
 import numpy as np
 
 from .graphs import write_graphml
+from .io.files import read_json
 from .io.images import unique_file_names, write_png
 from .io.ply import write_ply
 from .report import overlay, palette, render_report
@@ -130,10 +131,10 @@ def read_marker(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     """
     p = Path(path) / MARKER
     try:
-        if p.is_symlink() or not p.is_file() or p.stat().st_size > MARKER_MAX_BYTES:
+        if p.is_symlink() or not p.is_file():
             return None
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        doc = read_json(p, field="marker", max_bytes=MARKER_MAX_BYTES)
+    except (OSError, SceneError):
         return None
     if not isinstance(doc, dict) or doc.get("kind") not in KINDS:
         return None
@@ -734,12 +735,9 @@ def read_output(out: str | os.PathLike[str]) -> tuple[Result, dict[str, Any]]:
     info: dict[str, Any] = {}
     rj = root / "run.json"
     if rj.exists():
-        try:
-            if rj.stat().st_size > 64 * 2**20:
-                raise ValueError("larger than 64 MiB")
-            info = json.loads(rj.read_text(encoding="utf-8"))
-        except (ValueError, UnicodeDecodeError) as err:
-            raise SceneError(f"invalid JSON ({str(err).splitlines()[0]})", where=str(rj), field="run.json") from err
+        info = read_json(rj, field="run.json")
         if not isinstance(info, dict):
             raise SceneError("expected a JSON object", where=str(rj), field="run.json")
+        if not isinstance(info.get("scene") or "", str):
+            raise SceneError(f"expected the scene's path (got {type(info['scene']).__name__})", where=str(rj), field="scene")
     return Result.load(root / RESULT_FILE), info

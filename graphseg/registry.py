@@ -29,19 +29,53 @@ import warnings
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any
 
-__all__ = ["Registry", "PluginNotFoundError", "PluginLoadWarning", "MissingDependencyError", "require"]
+__all__ = [
+    "Registry",
+    "PluginNotFoundError",
+    "GraphsegWarning",
+    "PluginLoadWarning",
+    "MissingDependencyError",
+    "TORCH_CPU",
+    "install_hint",
+    "require",
+]
+
+#: The one instruction that installs torch's CPU build on any Linux machine (PyTorch's CPU wheel
+#: index, as in PyTorch's own install guide); every "install torch" hint uses it.
+TORCH_CPU = "pip install torch==2.13.0 --extra-index-url https://download.pytorch.org/whl/cpu"
 
 
 class PluginNotFoundError(LookupError):
     """Raised when a plugin name is unknown; the message lists the installed choices."""
 
 
-class PluginLoadWarning(RuntimeWarning):
+class GraphsegWarning(UserWarning):
+    """Base class of the warnings graphseg itself issues (the test suite turns them into errors)."""
+
+
+class PluginLoadWarning(GraphsegWarning, RuntimeWarning):
     """Warned when a registered plugin fails to import."""
 
 
 class MissingDependencyError(ImportError):
     """Raised when an optional dependency is missing; the message names the extra."""
+
+
+def install_hint(extra: str, missing: str = "") -> str:
+    """The pip command that installs graphseg's ``extra``, torch's CPU build first when torch is missing.
+
+    Plain ``pip install torch`` (or an extra that asks for it) takes a CUDA build of several GB;
+    the CPU build comes from PyTorch's CPU wheel index (:data:`TORCH_CPU`).
+
+    Examples
+    --------
+    >>> install_hint("onnx")
+    'pip install "graphseg[onnx]"'
+    >>> install_hint("torch", missing="torch")
+    'pip install torch==2.13.0 --extra-index-url https://download.pytorch.org/whl/cpu && pip install "graphseg[torch]"'
+    """
+    first = f"{TORCH_CPU} && " if missing.split(".")[0] == "torch" else ""
+    return f'{first}pip install "graphseg[{extra}]"'
 
 
 def require(module: str, extra: str) -> Any:
@@ -78,7 +112,7 @@ def require(module: str, extra: str) -> Any:
         return importlib.import_module(module)
     except ImportError as err:
         raise MissingDependencyError(
-            f"this feature needs '{module}': pip install \"graphseg[{extra}]\""
+            f"this feature needs '{module}': {install_hint(extra, module)}"
         ) from err
 
 
@@ -179,6 +213,18 @@ class Registry:
         if name in self._failed:
             msg = f"{self.kind} {name!r} failed to load ({self._failed[name]}); installed choices: {choices}"
         return PluginNotFoundError(msg)
+
+    def missing_message(self, name: str) -> str:
+        """Why ``name``, named by a saved file or config, cannot be used here: not installed, or failing to load.
+
+        Examples
+        --------
+        >>> print(Registry("edge criterion", group="graphseg.edge_adders").missing_message("probe_x"))
+        edge criterion 'probe_x' is not installed (a plugin: install the package that provides the graphseg.edge_adders entry point 'probe_x')
+        """
+        if name in self._failed:
+            return f"{self.kind} {name!r} is installed but failed to load ({self._failed[name]})"
+        return f"{self.kind} {name!r} is not installed (a plugin: install the package that provides the {self.group} entry point {name!r})"
 
     def get(self, name: str) -> Any:
         """Return the plugin object (usually a class) registered as ``name``.

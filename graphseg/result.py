@@ -181,6 +181,9 @@ class Result:
                 if field not in a:
                     raise SceneError("missing", where=where, field=field)
             m = a["mask_view"].shape
+            field = "mask_view"
+            if len(m) != 1 or a[field].dtype.kind not in "iu" or (a[field].size and not 0 <= int(a[field].min()) <= int(a[field].max()) < n_views):
+                raise SceneError(f"expected int [M] of view indices in [0, {n_views})", where=where, field=field)
             for field in ("mask_id", "mask_object"):
                 if a[field].shape != m or a[field].ndim != 1 or a[field].dtype.kind not in "iu":
                     raise SceneError(f"expected int [{m[0] if m else '?'}] like mask_view (got {a[field].dtype} {list(a[field].shape)})", where=where, field=field)
@@ -191,6 +194,9 @@ class Result:
             field = "object_ptr"
             if ptr.ndim != 1 or ptr.size < 1 or ptr.dtype.kind not in "iu" or ptr[0] != 0 or ptr[-1] != len(pts) or (np.diff(ptr) < 0).any():
                 raise SceneError(f"expected a non-decreasing int [K + 1] from 0 to {len(pts)}", where=where, field=field)
+            field = "mask_object"
+            if a[field].size and not 0 <= int(a[field].min()) <= int(a[field].max()) <= ptr.size - 1:
+                raise SceneError(f"expected object ids in [0, {ptr.size - 1}]", where=where, field=field)
             cols = a.get("object_colors")
             if cols is not None and (cols.shape != pts.shape or cols.dtype != np.uint8):
                 raise SceneError(f"expected uint8 {list(pts.shape)} (got {cols.dtype} {list(cols.shape)})", where=where, field="object_colors")
@@ -218,13 +224,27 @@ class Result:
             graphs = []
             for s in range(num_stages):
                 field = f"stage{s}"
-                graphs.append(f.graphs[field])
+                g = f.graphs[field]
+                if g.masks is not None and [lab.shape for lab in g.masks] != [lab.shape for lab in labels]:
+                    raise SceneError(f"expected {n_views} mask images of the label images' sizes (got {[list(lab.shape) for lab in g.masks]})", where=where, field=field)
+                if graphs and g.members["node"].shape != graphs[0].members["node"].shape:
+                    raise SceneError(f"expected members for the {graphs[0].members['node'].shape[0]} masks of stage0 (got {g.members['node'].shape[0]})", where=where, field=field)
+                graphs.append(g)
             field = "config"
-            config = Config.model_validate(f.meta["config"])
+            try:
+                config = Config.model_validate(f.meta["config"])
+            except ValueError as err:  # pydantic's ValidationError: name a plugin that is not installed here
+                missing = missing_plugin(f.meta["config"])
+                if missing:
+                    raise SceneError(missing, where=where, field=field) from err
+                raise
             field = "info"
             info = f.meta.get("info", {})
             if not isinstance(info, dict):
                 raise SceneError("expected an object", where=where, field=field)
+            bad = _bad_info(info)
+            if bad:
+                raise SceneError(f"unexpected {bad[1]}", where=where, field=f"info.{bad[0]}")
         except SceneError:
             raise
         except (KeyError, ValueError, TypeError, IndexError) as err:
@@ -242,6 +262,82 @@ class Result:
             background=bg,
             info=info,
         )
+
+
+def missing_plugin(config: Any) -> str | None:
+    """The first criterion or contractor of a saved ``config`` (a plain dict) that cannot be loaded here, as a message.
+
+    A result or store written with a plugin (an entry point of
+    ``graphseg.edge_adders`` or ``graphseg.contractors``) names it in its
+    configuration; read where that plugin is not installed, the message says
+    which plugin and how to get it. None when every plugin named loads.
+
+    Examples
+    --------
+    >>> print(missing_plugin({"stages": [["pixel_match"], [{"probe_x": {"r": 1}}]], "contractor": "star"}))
+    edge criterion 'probe_x' is not installed (a plugin: install the package that provides the graphseg.edge_adders entry point 'probe_x')
+    >>> missing_plugin({"stages": [["pixel_match"]]}) is None
+    True
+    """
+    from .graphs.registry import contractors, edge_adders
+    from .registry import PluginNotFoundError
+
+    if not isinstance(config, dict):
+        return None
+
+    def name_of(entry: Any) -> str | None:
+        if isinstance(entry, str):
+            return entry
+        if isinstance(entry, dict) and len(entry) == 1 and isinstance(next(iter(entry)), str):
+            return str(next(iter(entry)))
+        return None
+
+    wanted = []
+    stages = config.get("stages")
+    for stage in stages if isinstance(stages, list) else []:
+        for entry in stage if isinstance(stage, list) else []:
+            wanted.append((edge_adders, name_of(entry)))
+    wanted.append((contractors, name_of(config.get("contractor"))))
+    for registry, name in wanted:
+        if name is None or name == "dino_similarity":  # the old name of dino (migrated when the config is read)
+            continue
+        try:
+            registry.get(name)
+        except PluginNotFoundError:
+            return str(registry.missing_message(name))
+    return None
+
+
+def _bad_info(info: dict[str, Any]) -> tuple[str, str] | None:
+    """The first diagnostic of ``info`` that graphseg reads back and that has the wrong shape, as ``(key, what)``.
+
+    Examples
+    --------
+    >>> _bad_info({"background": {"plane": [0, 0, 1, 0]}, "warnings": ["w"]}) is None
+    True
+    >>> _bad_info({"background": {"plane": 3.5}})
+    ('background.plane', 'float (expected 4 finite numbers or null)')
+    """
+    bg = info.get("background")
+    if bg is not None and not isinstance(bg, dict):
+        return "background", f"{type(bg).__name__} (expected an object)"
+    plane = (bg or {}).get("plane")
+    if plane is not None and not (
+        isinstance(plane, list) and len(plane) == 4 and all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in plane)
+    ):
+        return "background.plane", f"{type(plane).__name__} (expected 4 finite numbers or null)"
+    for key, kind, words in (("warnings", list, "a list of strings"), ("stages", list, "a list of objects"), ("support", dict, "an object"), ("pipeline", dict, "an object")):
+        val = info.get(key)
+        if val is not None and not isinstance(val, kind):
+            return key, f"{type(val).__name__} (expected {words})"
+    if not all(isinstance(w, str) for w in info.get("warnings") or []):
+        return "warnings", "entries (expected a list of strings)"
+    if not all(isinstance(s, dict) for s in info.get("stages") or []):
+        return "stages", "entries (expected a list of objects)"
+    dropped = (info.get("support") or {}).get("dropped")
+    if dropped is not None and not (isinstance(dropped, int) and not isinstance(dropped, bool)):
+        return "support.dropped", f"{type(dropped).__name__} (expected an integer)"
+    return None
 
 
 def _without_timings(x: Any) -> Any:

@@ -1,3 +1,5 @@
+import ctypes
+import gc
 import sys
 from pathlib import Path
 
@@ -25,3 +27,47 @@ def ycbv_root():
     if not (SHARED / "0001").is_dir():
         pytest.skip("../shared/data/ycbv is not available")
     return SHARED
+
+
+# The suite runs on both cores (pytest-xdist; `-n auto --maxprocesses 2 --dist loadgroup` in
+# pyproject.toml). Each test file is one group, so a module's fixtures are built once, on one
+# worker. The files that build torch models share one group: two of them never hold their
+# weights at the same time, which bounds the suite's memory.
+MODEL_FILES = frozenset(
+    f"tests/backends/{name}.py"
+    for name in (
+        "test_da3",
+        "test_dense_matchers",
+        "test_dino",
+        "test_dust3r",
+        "test_hed",
+        "test_reference_dino_da3",
+        "test_reference_dust3r",
+        "test_reference_matchers",
+        "test_reference_sam2",
+        "test_sam",
+    )
+) | {"tests/test_acceptance_models.py"}
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.get_closest_marker("xdist_group") is None:
+            rel = Path(item.path).resolve().relative_to(ROOT).as_posix()
+            item.add_marker(pytest.mark.xdist_group("models" if rel in MODEL_FILES else rel))
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_memory():
+    """After each module, hand the memory its fixtures held back to the system (glibc keeps it)."""
+    yield
+    gc.collect()
+    if _LIBC is not None:
+        _LIBC.malloc_trim(0)
+
+
+try:
+    _LIBC = ctypes.CDLL("libc.so.6")
+except OSError:  # not glibc
+    _LIBC = None

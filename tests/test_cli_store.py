@@ -49,7 +49,38 @@ def test_add_then_run_eval_export_info(scenes, tmp_path, capsys):
     code, out, _ = cli(["export", store, "--graphml", tmp_path / "g.graphml"], capsys)
     assert code == 0 and (tmp_path / "g.graphml").is_file() and (tmp_path / "g_stage1.graphml").is_file()
     code, out, _ = cli(["suggest", store, "-n", "2"], capsys)
-    assert code == 0 and len(out.strip().splitlines()) == 3 and out.startswith("rank")
+    lines = out.strip().splitlines()
+    assert code == 0 and len(lines) == 4 and out.startswith("rank") and "spread" in lines[0]
+    # both boxes are seen in 4 views: every score is 0, and the last line says why
+    assert [float(row.split()[2]) for row in lines[1:3]] == [0.0, 0.0]
+    assert lines[3].startswith("all scores are 0: every object is seen in two or more views, so nothing is under-seen (the score counts under_seen only;")
+    assert lines[3].endswith("the candidates rank by spread, the angle in degrees to the nearest camera, largest first")
+    spreads = [float(row.split()[6]) for row in lines[1:3]]
+    assert spreads == sorted(spreads, reverse=True)
+
+
+def test_suggest_gives_real_scores_for_an_object_seen_once(tmp_path, capsys):
+    """One view of one box: the box is under-seen, so candidates that see it from elsewhere score > 0, with no note."""
+    from graphseg.sim.boxes import Box
+
+    write_scene_folder(box_scene([Box((0.0, 0.0, 0.04), (0.08, 0.06, 0.08))], views=1, shape=(60, 80), arc_deg=0.0), tmp_path / "one")
+    assert cli(["add", tmp_path / "store", tmp_path / "one", "--quiet"], capsys)[0] == 0
+    code, out, _ = cli(["suggest", tmp_path / "store", "-n", "3"], capsys)
+    lines = out.strip().splitlines()
+    assert code == 0 and len(lines) == 4 and not any(line.startswith("all scores are 0") for line in lines)
+    assert float(lines[1].split()[2]) == 1.0 and float(lines[1].split()[4]) == 1.0  # best candidate: the under_seen term at its top
+
+
+def test_zero_score_note_when_no_candidate_sees_the_under_seen_object():
+    from graphseg.method.segment import segment
+    from graphseg.sim.boxes import Box
+    from graphseg.store.commands import zero_score_note
+
+    scene = box_scene([Box((0.0, 0.0, 0.04), (0.08, 0.06, 0.08))], views=1, shape=(60, 80), arc_deg=0.0)
+    result = segment(scene, [v.instances.astype(np.int32) for v in scene.views], {})
+    note = zero_score_note(scene, result)
+    assert note.startswith("all scores are 0: no candidate sees the objects seen in fewer than two views (the score counts under_seen only;")
+    assert zero_score_note(scene, result, {"under_seen": 0.0}).startswith("all scores are 0: every term weighs 0 (the score counts nothing)")
 
 
 @pytest.fixture(scope="module")

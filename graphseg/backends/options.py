@@ -57,7 +57,7 @@ from typing import Any, ClassVar
 
 from pydantic import BaseModel, ValidationError
 
-from ..registry import MissingDependencyError
+from ..registry import MissingDependencyError, install_hint
 from ..scene import SceneError
 from ..validation import NoOptions
 
@@ -223,7 +223,7 @@ def require_backend(module: str, backend: str, extra: str, option: str | None = 
         top = missing.split(".")[0]
         also = f" && {_NO_DEPS[top]}" if top in _NO_DEPS else ""
         then = f", then set --backend-option {backend}.{option}=PATH" if option else ""
-        raise MissingDependencyError(f"{backend} needs '{missing}': pip install \"graphseg[{extra}]\"{also}{then}") from err
+        raise MissingDependencyError(f"{backend} needs '{missing}': {install_hint(extra, missing)}{also}{then}") from err
 
 
 def checkpoint_path(path: str | Path | None, backend: str, extra: str, option: str = "checkpoint") -> Path:

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..io.files import read_json
 from ..scene import SceneError
 from .aggregate import aggregate, plot_sparse_views, to_markdown, write_aggregate
 from .executors import LocalExecutor, RayExecutor
@@ -98,8 +99,8 @@ def _check_out(out: Path, inputs: Sequence[str]) -> None:
 
 def _read_json(path: Path) -> dict[str, Any] | None:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = read_json(path, field=path.name)
+    except (OSError, SceneError):
         return None
     return data if isinstance(data, dict) else None
 

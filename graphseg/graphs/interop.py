@@ -284,7 +284,7 @@ def to_pyg(graph: CorrespondenceGraph) -> Any:
     Raises
     ------
     MissingDependencyError
-        Without torch: ``pip install "graphseg[torch]"``.
+        Without torch; the message gives :data:`graphseg.registry.TORCH_CPU` (torch's CPU build).
     """
     torch = require("torch", "torch")
     graph.validate()

@@ -43,65 +43,33 @@ from typing import Any
 
 import numpy as np
 
+from ..io.files import (
+    BOMB_MIN_BYTES,
+    BOMB_RATIO,
+    DAMAGE,
+    MAX_ARRAY_BYTES,
+    NpzFile,
+    bomb_limit,
+    describe,
+    npz_headers,
+)
 from .graph import CorrespondenceGraph, GraphValidationError
 
 __all__ = ["save_graph", "load_graph", "save_native", "load_native", "check_npz_sizes", "bomb_limit", "NativeFile", "FORMAT", "VERSION", "MAX_ARRAY_BYTES", "BOMB_RATIO", "BOMB_MIN_BYTES"]
 
 FORMAT = "graphseg-graph"
 VERSION = 1
-#: Upper bound on the total decompressed size of the arrays of one file (override with
-#: the environment variable ``GRAPHSEG_MAX_ARRAY_BYTES``).
-MAX_ARRAY_BYTES = 16 * 2**30
-#: Deflate cannot compress better than about 1032:1.
-_MAX_RATIO = 1100
-#: An entry that packs more than this many bytes per compressed byte (only runs of one
-#: value do: 4 GiB of zeros deflate 1028:1, real label images 100-500:1) ...
-BOMB_RATIO = 1000
-#: ... and is larger than this (or than 8 bytes per pixel of the pixel budget, one int32
-#: label image and more) is refused as a zip bomb before it is decompressed.
-BOMB_MIN_BYTES = 64 * 2**20
-
-
-def bomb_limit() -> int:
-    """Bytes above which an entry compressed at :data:`BOMB_RATIO`:1 or more is refused.
-
-    ``max(BOMB_MIN_BYTES, 8 * pixel budget)``: a real output holds no near-constant
-    array larger than one int32 label image of the largest allowed view
-    (``$GRAPHSEG_MAX_PIXELS``, :func:`graphseg.io.images.max_pixels`).
-
-    Examples
-    --------
-    >>> bomb_limit() >= BOMB_MIN_BYTES
-    True
-    """
-    from ..io.images import max_pixels
-
-    return max(BOMB_MIN_BYTES, 8 * max_pixels())
-
-
-def _size(n: int) -> str:
-    """``n`` bytes in the largest binary unit that keeps one digit before the point.
-
-    Examples
-    --------
-    >>> _size(3 * 2**30), _size(1536), _size(12)
-    ('3.0 GiB', '1.5 KiB', '12 B')
-    """
-    for unit, k in (("GiB", 2**30), ("MiB", 2**20), ("KiB", 2**10)):
-        if n >= k:
-            return f"{n / k:.1f} {unit}"
-    return f"{n} B"
 
 
 def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
-    """Read the declared shape and dtype of every array in an ``.npz`` without loading any.
+    """Shapes and dtypes of the arrays of an ``.npz``, read from their headers (nothing loaded).
 
-    Every declared size is checked against the member's size in the zip, the
-    compressed size (deflate's maximum ratio) and ``limit`` (default
-    :data:`MAX_ARRAY_BYTES` or ``$GRAPHSEG_MAX_ARRAY_BYTES``) before anything
-    is allocated. An entry larger than :func:`bomb_limit` that is compressed
-    :data:`BOMB_RATIO`:1 or better (a zip bomb: gigabytes of zeros in a few
-    megabytes) is refused before it is decompressed.
+    :func:`graphseg.io.files.npz_headers`: declared sizes are checked against
+    the uncompressed size, the compressed size (deflate's maximum ratio) and
+    ``limit`` (default :data:`MAX_ARRAY_BYTES` or ``$GRAPHSEG_MAX_ARRAY_BYTES``)
+    before anything is allocated; an entry larger than :func:`bomb_limit` that
+    is compressed :data:`BOMB_RATIO`:1 or better (a zip bomb: gigabytes of
+    zeros in a few megabytes) is refused before it is decompressed.
 
     Returns
     -------
@@ -111,7 +79,7 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
     Raises
     ------
     GraphValidationError
-        Naming the file and the array that is corrupt or too large.
+        Naming the file and the array that is damaged, tampered or too large.
 
     Examples
     --------
@@ -121,44 +89,12 @@ def check_npz_sizes(path: str | PathLike[str], *, limit: int | None = None) -> d
     ...     check_npz_sizes(os.path.join(d, "a.npz"))["x"][0]
     (2, 3)
     """
-    import zipfile
+    from ..scene import SceneError
 
-    cap = int(limit if limit is not None else os.environ.get("GRAPHSEG_MAX_ARRAY_BYTES", MAX_ARRAY_BYTES))
-    bomb = bomb_limit()
-    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
-    total = 0
     try:
-        with zipfile.ZipFile(os.fspath(path)) as zf:
-            for info in zf.infolist():
-                name = info.filename[:-4] if info.filename.endswith(".npy") else info.filename
-                if info.file_size > max(info.compress_size, 1) * _MAX_RATIO + 2**20:
-                    raise GraphValidationError(f"{path}: {name}: declared size {info.file_size} bytes is impossible for {info.compress_size} compressed bytes (tampered file)")
-                if info.file_size > bomb and info.file_size >= max(info.compress_size, 1) * BOMB_RATIO:
-                    raise GraphValidationError(
-                        f"{path}: {name}: {_size(info.file_size)} compressed into {_size(info.compress_size)} "
-                        f"({info.file_size // max(info.compress_size, 1)}:1); refused as a zip bomb before decompressing "
-                        f"(an entry over {_size(bomb)} must compress less than {BOMB_RATIO}:1; raise GRAPHSEG_MAX_PIXELS for larger images)"
-                    )
-                with zf.open(info) as f:
-                    version = np.lib.format.read_magic(f)
-                    if version == (1, 0):
-                        shape, _, dtype = np.lib.format.read_array_header_1_0(f, max_header_size=10000)
-                    else:
-                        shape, _, dtype = np.lib.format.read_array_header_2_0(f, max_header_size=10000)
-                if dtype.hasobject:
-                    raise GraphValidationError(f"{path}: {name}: object arrays are not allowed")
-                nbytes = int(np.prod(shape, dtype=object)) * dtype.itemsize
-                if nbytes > info.file_size:
-                    raise GraphValidationError(f"{path}: {name}: declares {list(shape)} ({nbytes} bytes) but holds {info.file_size} bytes (tampered file)")
-                total += nbytes
-                if total > cap:
-                    raise GraphValidationError(f"{path}: {name}: arrays need {total} bytes, more than the limit of {cap} (GRAPHSEG_MAX_ARRAY_BYTES)")
-                out[name] = (tuple(int(x) for x in shape), dtype)
-    except (zipfile.BadZipFile, ValueError, EOFError, OSError, SyntaxError) as err:
-        if isinstance(err, (FileNotFoundError, GraphValidationError)):
-            raise
-        raise GraphValidationError(f"{path}: file: not a valid .npz ({str(err).splitlines()[0] if str(err) else type(err).__name__})") from err
-    return out
+        return npz_headers(path, limit=limit)
+    except SceneError as err:
+        raise GraphValidationError(str(err)) from err
 
 
 @dataclass
@@ -272,35 +208,59 @@ def load_native(path: str | PathLike[str]) -> NativeFile:
     """Read a file written by :func:`save_native`.
 
     Declared array sizes are checked before anything is allocated
-    (:func:`check_npz_sizes`).
+    (:func:`check_npz_sizes`); every array is read through
+    :class:`graphseg.io.files.NpzFile`, so damaged bytes name their entry.
 
     Raises
     ------
     GraphValidationError
         If the file is not a graphseg native file, has an unknown version, or is
-        corrupt or tampered (the message names the file and the entry).
+        damaged, corrupt or tampered (the message names the file and the entry).
     """
+    from ..scene import SceneError
+
     try:
         return _load_native(path)
     except GraphValidationError:
         raise
-    except (KeyError, ValueError, TypeError, IndexError, AttributeError, EOFError, UnicodeDecodeError) as err:
-        text = str(err).splitlines()[0] if str(err) else type(err).__name__
-        raise GraphValidationError(f"{path}: file: corrupt or tampered graphseg file ({type(err).__name__}: {text})") from err
+    except SceneError as err:  # from NpzFile: "PATH: ENTRY: damaged ..."
+        raise GraphValidationError(str(err)) from err
+    except (*DAMAGE, AttributeError) as err:
+        raise GraphValidationError(f"{path}: file: corrupt or tampered graphseg file ({describe(err)})") from err
 
 
 def _load_native(path: str | PathLike[str]) -> NativeFile:
-    declared = check_npz_sizes(path)
-    with np.load(os.fspath(path), allow_pickle=False) as z:
-        if declared.get("__header__", ((0,), None))[0] > (2**24,):
-            raise GraphValidationError(f"{path}: __header__: larger than 16 MiB")
-        if "__header__" not in z.files:
+    with NpzFile(path) as z:
+        if "__header__" not in z:
             raise GraphValidationError(f"{path}: not a graphseg native file (no __header__)")
-        header = json.loads(bytes(z["__header__"]).decode())
+        if z.headers["__header__"][0] > (2**24,):
+            raise GraphValidationError(f"{path}: __header__: larger than 16 MiB")
+        try:
+            header = json.loads(bytes(z["__header__"]).decode())
+        except (ValueError, RecursionError) as err:
+            raise GraphValidationError(f"{path}: __header__: not a JSON header ({describe(err)})") from err
+        if not isinstance(header, dict):
+            raise GraphValidationError(f"{path}: __header__: expected a JSON object")
         if header.get("format") != FORMAT:
             raise GraphValidationError(f"{path}: expected format {FORMAT!r} (got {header.get('format')!r})")
         if header.get("version") != VERSION:
             raise GraphValidationError(f"{path}: unsupported version {header.get('version')!r}")
+        for key, kind in (("graphs", dict), ("meta", dict), ("arrays", list)):
+            if not isinstance(header.get(key, kind()), kind):
+                raise GraphValidationError(f"{path}: __header__: expected {key!r} to be a JSON {'object' if kind is dict else 'list'}")
+
+        def ints(key: str) -> np.ndarray:
+            a = z[key]
+            if a.dtype.kind not in "iu":
+                raise GraphValidationError(f"{path}: {key}: expected integers (got {a.dtype})")
+            return a
+
+        def column(key: str) -> np.ndarray:
+            a = z[key]
+            if a.dtype.kind not in "biufUS":
+                raise GraphValidationError(f"{path}: {key}: expected numbers, booleans or strings (got {a.dtype})")
+            return a
+
         mask_cache: dict[int, list[np.ndarray]] = {}
         out = NativeFile(meta=header.get("meta", {}))
         for name, entry in header["graphs"].items():
@@ -308,16 +268,16 @@ def _load_native(path: str | PathLike[str]) -> NativeFile:
             if entry.get("masks") is not None:
                 s = int(entry["masks"])
                 if s not in mask_cache:
-                    mask_cache[s] = [z[f"masks/{s}/{v}"].astype(np.int32) for v in range(entry["num_views"])]
+                    mask_cache[s] = [ints(f"masks/{s}/{v}").astype(np.int32) for v in range(entry["num_views"])]
                 masks = mask_cache[s]
             members = None
             if entry.get("members"):
-                members = {c: z[f"{name}/members/{c}"] for c in ("view", "mask_id", "node")}
+                members = {c: ints(f"{name}/members/{c}") for c in ("view", "mask_id", "node")}
             g = CorrespondenceGraph(
                 entry["num_nodes"],
-                z[f"{name}/edge_index"],
-                {c: z[f"{name}/edge/{c}"] for c in entry["edge"]},
-                {c: z[f"{name}/node/{c}"] for c in entry["node"]},
+                ints(f"{name}/edge_index"),
+                {c: column(f"{name}/edge/{c}") for c in entry["edge"]},
+                {c: column(f"{name}/node/{c}") for c in entry["node"]},
                 masks=masks,
                 members=members,
                 level=entry["level"],
@@ -326,7 +286,7 @@ def _load_native(path: str | PathLike[str]) -> NativeFile:
             g.validate()
             out.graphs[name] = g
         for name in header.get("arrays", []):
-            out.arrays[name] = z[f"arrays/{name}"]
+            out.arrays[name] = column(f"arrays/{name}")
     return out
 
 

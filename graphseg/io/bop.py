@@ -10,7 +10,6 @@ visible mask. BOP depth is in units of ``depth_scale`` millimetres.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -20,6 +19,7 @@ import numpy as np
 
 from ..scene import Scene, SceneError, View
 from .checks import intrinsics, matrix, positive, reading, rigid
+from .files import read_json
 from .images import check_size, confine, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
@@ -33,10 +33,7 @@ def is_bop(path: str | os.PathLike[str]) -> bool:
 def _json(path: Path) -> Any:
     if not path.is_file():
         raise SceneError("file not found", where=str(path), field=path.stem)
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as err:
-        raise SceneError(f"invalid JSON ({err})", where=str(path), field=path.stem) from err
+    return read_json(path, field=path.stem)
 
 
 def _image(folder: Path, im: int) -> Path:

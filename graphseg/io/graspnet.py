@@ -18,6 +18,7 @@ import numpy as np
 
 from ..scene import Scene, SceneError, View
 from .checks import intrinsics, matrix, positive, reading, rigid
+from .files import read_npy
 from .images import check_size, confine, read_label, read_rgb, read_uint16, require_folder
 from .select import select_indices
 
@@ -35,13 +36,8 @@ def _camera_dir(path: Path, camera: str) -> Path:
 def _npy(root: Path, path: Path, field: str) -> np.ndarray:
     """A small numeric ``.npy`` inside ``root`` (no pickle; at most 64 MiB)."""
     p = confine(root, path.relative_to(root), where=str(root), field=field)
-    if p.stat().st_size > 64 * 2**20:
-        raise SceneError("larger than 64 MiB", where=str(p), field=field)
-    try:
-        arr = np.array(np.load(p, mmap_mode="r", allow_pickle=False))
-    except (ValueError, OSError, EOFError) as err:
-        raise SceneError(f"cannot read .npy ({str(err).splitlines()[0] if str(err) else type(err).__name__})", where=str(p), field=field) from err
-    if not isinstance(arr, np.ndarray) or arr.dtype.kind not in "fiu":
+    arr = read_npy(p, field=field)
+    if arr.dtype.kind not in "fiu":
         raise SceneError("expected a numeric array", where=str(p), field=field)
     return arr
 

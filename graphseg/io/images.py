@@ -153,7 +153,10 @@ def _imread(path: str | os.PathLike[str], flags: int, field: str) -> np.ndarray:
         from ..quiet import native_silence
 
         with native_silence(fds=(2,)):  # libpng prints "libpng error: ..." on fd 2 for a truncated file
-            img = cv2.imdecode(data, flags)
+            try:
+                img = cv2.imdecode(data, flags)
+            except cv2.error:  # OpenCV refuses some damaged headers by raising, not by returning None
+                img = None
     if img is None:
         raise SceneError("cannot decode image (corrupt, truncated or not an image)", where=str(p), field=field)
     return img

@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import os
 import re
-import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -59,6 +58,7 @@ from urllib.parse import unquote
 import numpy as np
 
 from ..scene import Matches, Scene, SceneError, is_rigid
+from .files import NpzFile, npz_headers
 
 __all__ = [
     "write_masks",
@@ -131,31 +131,8 @@ def pair_file_name(view_i: str, view_j: str) -> str:
 
 # ----------------------------------------------------------------------------- npz reading
 def _npz_headers(path: Path) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
-    """Shapes and dtypes of the arrays of an ``.npz`` read from their headers (nothing loaded)."""
-    where = str(path)
-    try:
-        zf = zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, OSError) as err:
-        raise SceneError(f"not a readable .npz file ({err})", where=where, field="file") from err
-    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
-    with zf:
-        for info in zf.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            key = info.filename[:-4]
-            try:
-                with zf.open(info) as fh:
-                    version = np.lib.format.read_magic(fh)
-                    if version == (1, 0):
-                        shape, _, dtype = np.lib.format.read_array_header_1_0(fh)
-                    else:
-                        shape, _, dtype = np.lib.format.read_array_header_2_0(fh)
-            except (ValueError, OSError, zipfile.BadZipFile) as err:
-                raise SceneError(f"unreadable array header ({err})", where=where, field=key) from err
-            if dtype.hasobject:
-                raise SceneError("object arrays are not allowed (no pickle)", where=where, field=key)
-            out[key] = (tuple(int(s) for s in shape), dtype)
-    return out
+    """Shapes and dtypes of the arrays of an ``.npz`` read from their headers (nothing loaded; :func:`~graphseg.io.files.npz_headers`)."""
+    return npz_headers(path)
 
 
 def _check(headers: Mapping[str, tuple[tuple[int, ...], np.dtype]], key: str, where: str, *, ndim: int, last: int | None = None, kind: str = "fiu") -> tuple[int, ...]:
@@ -173,11 +150,8 @@ def _check(headers: Mapping[str, tuple[tuple[int, ...], np.dtype]], key: str, wh
 
 
 def _load(path: Path, keys: Sequence[str]) -> dict[str, np.ndarray]:
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in keys if k in z.files}
-    except (ValueError, OSError, zipfile.BadZipFile) as err:
-        raise SceneError(f"cannot read ({err})", where=str(path), field="file") from err
+    with NpzFile(path) as z:
+        return z.read(keys)
 
 
 def _finite(arr: np.ndarray, where: str, field: str, *, allow_nan: bool = False) -> np.ndarray:
@@ -557,22 +531,14 @@ def read_masks(folder: str | os.PathLike[str], name: str) -> np.ndarray | list[n
         name = encode_name(name)  # names saved by save_inputs
     npz, png = folder / f"{name}.npz", folder / f"{name}.png"
     if npz.exists():
-        # the zip-bomb and size rules of every .npz graphseg reads
-        from ..graphs.native import check_npz_sizes
-
-        try:
-            check_npz_sizes(npz)
-            with np.load(npz, allow_pickle=False) as z:
-                if "masks" not in z.files:
-                    raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
-                arr = z["masks"]
-        except (ValueError, OSError, EOFError) as err:  # GraphValidationError is a ValueError
-            if isinstance(err, SceneError):
-                raise
-            text = (str(err) or type(err).__name__).splitlines()[0].replace(f"{npz}: ", "")
-            raise SceneError(f"cannot read .npz ({text})", where=str(npz), field="masks") from err
+        with NpzFile(npz) as z:  # the zip-bomb and size rules of every .npz graphseg reads
+            if "masks" not in z:
+                raise SceneError("expected a 'masks' array", where=str(npz), field="masks")
+            arr = z["masks"]
         if arr.ndim != 3 or arr.dtype.kind not in "biu":
             raise SceneError(f"expected bool [K, H, W] (got {arr.dtype} {list(arr.shape)})", where=str(npz), field="masks")
+        if not len(arr):  # no masks: an all-zero label image of the same size
+            return np.zeros(arr.shape[1:], np.int32)
         return list(arr.astype(bool))
     if png.exists():
         from .images import read_label

@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 
 from ..scene import Scene, SceneError, View, is_rigid
+from .files import read_json
 from .images import (
     check_size,
     confine,
@@ -143,10 +144,7 @@ def read_scene_folder(
     if not sj.exists():
         return _rgb_only(root, views, step, num_views)
     where = str(sj)
-    try:
-        doc = json.loads(sj.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as err:
-        raise SceneError(f"invalid JSON ({err})", where=where, field="scene.json") from err
+    doc = read_json(sj, field="scene.json")
     if not isinstance(doc, dict):
         raise SceneError("expected a JSON object", where=where, field="scene.json")
     if doc.get("format") != FORMAT:
@@ -170,7 +168,9 @@ def read_scene_folder(
     if len(set(names)) != len(names):
         raise SceneError("view names must be unique", where=where, field="views[].name")
     objects: dict[int, str] = {}
-    for k, od in enumerate(doc.get("objects", []) or []):
+    if not isinstance(doc.get("objects") or [], list):
+        raise SceneError("expected a list of {\"id\": int, \"name\": str}", where=where, field="objects")
+    for k, od in enumerate(doc.get("objects") or []):
         if not isinstance(od, dict) or not isinstance(od.get("id"), int) or isinstance(od.get("id"), bool):
             raise SceneError("expected {\"id\": int, \"name\": str}", where=where, field=f"objects[{k}]")
         objects[int(od["id"])] = str(od.get("name", od["id"]))

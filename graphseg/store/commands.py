@@ -28,7 +28,7 @@ from ..scene import Scene, SceneError
 from .layout import StoreError, is_store, read_pointer
 from .scenegraph import AddReport, SceneGraph
 
-__all__ = ["add_views", "report_lines", "event_line", "info_lines", "store_output", "store_metrics", "store_result", "read_candidates", "suggest_lines", "is_store"]
+__all__ = ["add_views", "report_lines", "event_line", "info_lines", "store_output", "store_metrics", "store_result", "read_candidates", "suggest_lines", "zero_score_note", "is_store"]
 
 
 def add_views(
@@ -232,26 +232,24 @@ def read_candidates(path: str | os.PathLike[str]) -> Any:
     SceneError
         One line naming the file and what is wrong.
     """
-    import json
-
     import numpy as np
+
+    from ..io.files import read_json, read_npy
 
     p = Path(path)
     where = str(p)
     if not p.is_file():
         raise SceneError("file not found", where=where, field="candidates")
-    try:
-        if p.suffix == ".npy":
-            arr = np.load(p, allow_pickle=False)
-        else:
-            if p.stat().st_size > 64 * 2**20:
-                raise ValueError("larger than 64 MiB")
-            doc = json.loads(p.read_text(encoding="utf-8"))
-            if isinstance(doc, dict):
-                doc = doc.get("cam_to_world")
+    if p.suffix == ".npy":
+        arr = read_npy(p, field="candidates")
+    else:
+        doc = read_json(p, field="candidates", what="unreadable")
+        if isinstance(doc, dict):
+            doc = doc.get("cam_to_world")
+        try:
             arr = np.asarray(doc, np.float64)
-    except (ValueError, TypeError, UnicodeDecodeError, OSError) as err:
-        raise SceneError(f"unreadable ({(str(err).splitlines() or [''])[0]})", where=where, field="candidates") from err
+        except (ValueError, TypeError, OverflowError) as err:
+            raise SceneError(f"unreadable ({(str(err).splitlines() or [''])[0]})", where=where, field="candidates") from err
     if arr.ndim == 2:
         arr = arr[None]
     if arr.ndim != 3 or arr.shape[1:] != (4, 4) or arr.dtype.kind not in "fiu" or not np.isfinite(arr).all():
@@ -260,20 +258,67 @@ def read_candidates(path: str | os.PathLike[str]) -> Any:
 
 
 def suggest_lines(store: str | os.PathLike[str], candidates: str | os.PathLike[str] | None = None, *, top: int = 5, seed: Any = None) -> list[str]:
-    """What ``graphseg suggest STORE`` prints: the ``top`` candidate poses, best first."""
+    """What ``graphseg suggest STORE`` prints: the ``top`` candidate poses, best first.
+
+    Columns: the score, its terms (each normalised over the candidates), the
+    ``spread`` (degrees from the nearest camera of the store, the order among
+    equal scores) and the camera position. When every score is 0, a last line
+    says why (:func:`zero_score_note`).
+    """
     import numpy as np
+
+    from ..nbv import suggest_views
 
     poses = read_candidates(candidates) if candidates is not None else None
     sg = SceneGraph.open(store, create=False)
+    scene, result = sg.scene(), sg.result()
     try:
-        ranked = sg.suggest(poses, seed=seed)
+        ranked = suggest_views(scene, result, poses, seed=seed)  # what sg.suggest does, with the scene kept for the note
     except ValueError as err:
         if isinstance(err, SceneError):
             raise
         raise SceneError((str(err).splitlines() or [""])[0], where=str(candidates or store), field="candidates") from err
-    lines = [f"{'rank':>4} {'cand':>5} {'score':>7}  {'ambiguity':>9} {'under_seen':>10} {'table':>6}  camera position (x, y, z)"]
+    lines = [f"{'rank':>4} {'cand':>5} {'score':>7}  {'ambiguity':>9} {'under_seen':>10} {'table':>6} {'spread':>6}  camera position (x, y, z)"]
     for r, v in enumerate(ranked[: max(1, int(top))], 1):
         x, y, z = np.asarray(v.cam_to_world)[:3, 3]
         t = v.terms
-        lines.append(f"{r:>4} {v.index:>5} {v.score:>7.3f}  {t.get('ambiguity', 0):>9.3f} {t.get('under_seen', 0):>10.3f} {t.get('table', 0):>6.3f}  ({x:.3f}, {y:.3f}, {z:.3f})")
+        lines.append(
+            f"{r:>4} {v.index:>5} {v.score:>7.3f}  {t.get('ambiguity', 0):>9.3f} {t.get('under_seen', 0):>10.3f} {t.get('table', 0):>6.3f} {v.spread:>6.1f}  ({x:.3f}, {y:.3f}, {z:.3f})"
+        )
+    if ranked and all(v.score == 0 for v in ranked):
+        lines.append(zero_score_note(scene, result))
     return lines
+
+
+def zero_score_note(scene: Scene, result: Result, weights: dict[str, float] | None = None) -> str:
+    """Why every candidate scores 0, in one line (``graphseg suggest`` prints it under the table).
+
+    The score is the weighted sum of the terms (:data:`graphseg.nbv.DEFAULT_WEIGHTS`:
+    ``under_seen`` alone, chosen on ``benchmarks/bench_nbv.py``), so it is 0 when
+    the weighted terms are: with the default weights, when every object is seen
+    in two or more views and no fragment was dropped (the usual case once a few
+    views are in), or when no candidate sees what is under-seen. The other
+    terms are printed but weigh 0. Equal scores rank by ``spread``.
+
+    Examples
+    --------
+    >>> from graphseg.method.segment import segment
+    >>> from graphseg.testing.scenes import two_boxes_scene
+    >>> scene, masks, matches = two_boxes_scene()
+    >>> print(zero_score_note(scene, segment(scene, masks, matches)))
+    all scores are 0: every object is seen in two or more views, so nothing is under-seen (the score counts under_seen only; ambiguity and table are shown but weigh 0); the candidates rank by spread, the angle in degrees to the nearest camera, largest first
+    """
+    from ..nbv import DEFAULT_WEIGHTS, TERMS, under_seen_targets
+
+    w = {**DEFAULT_WEIGHTS, **(weights or {})}
+    weighted = [t for t in TERMS if w.get(t, 0) > 0]
+    shown = [t for t in TERMS if t not in weighted]
+    if not weighted:
+        why = "every term weighs 0"
+    elif weighted == ["under_seen"]:
+        why = "no candidate sees the objects seen in fewer than two views" if under_seen_targets(scene, result) else "every object is seen in two or more views, so nothing is under-seen"
+    else:
+        why = f"{' and '.join(weighted)} {'is' if len(weighted) == 1 else 'are'} 0 for every candidate"
+    counts = f"the score counts {', '.join(weighted)} only" if weighted else "the score counts nothing"
+    also = f"; {' and '.join(shown)} {'is' if len(shown) == 1 else 'are'} shown but weigh{'s' if len(shown) == 1 else ''} 0" if shown and weighted else ""
+    return f"all scores are 0: {why} ({counts}{also}); the candidates rank by spread, the angle in degrees to the nearest camera, largest first"

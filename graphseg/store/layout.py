@@ -52,6 +52,7 @@ from typing import Any
 
 import numpy as np
 
+from ..io.files import NpzFile, describe, read_json
 from ..result import jsonable
 from ..scene import Matches, SceneError, View
 
@@ -166,27 +167,21 @@ def _savez(path: Path, arrays: Mapping[str, np.ndarray], *, level: int = 1) -> N
 
 
 def _loadz(path: Path, skip: Sequence[str] = ()) -> dict[str, np.ndarray]:
-    from ..graphs.graph import GraphValidationError
-    from ..graphs.native import check_npz_sizes
-
+    """Every array of a store file but ``skip``; sizes checked first, damage named by entry (:class:`~graphseg.io.files.NpzFile`)."""
     if not path.is_file():
         raise StoreError("file not found (the store is incomplete)", where=str(path), field="file")
-    try:
-        check_npz_sizes(path)
-        with np.load(path, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files if k not in skip}
-    except GraphValidationError as err:
-        raise StoreError(str(err).split(": ", 1)[-1], where=str(path), field="file") from err
-    except (ValueError, OSError, EOFError) as err:
-        raise StoreError(f"corrupt file ({type(err).__name__}: {(str(err).splitlines() or [''])[0]})", where=str(path), field="file") from err
+    with NpzFile(path, error=StoreError) as z:
+        return z.read(skip=skip)
 
 
 def _header(arrays: dict[str, np.ndarray], path: Path) -> dict[str, Any]:
     raw = arrays.get("__header__")
+    if raw is not None and (raw.dtype != np.uint8 or raw.ndim != 1):
+        raise StoreError(f"expected uint8 bytes of JSON (got {raw.dtype} {list(raw.shape)})", where=str(path), field="__header__")
     try:
-        doc = json.loads(bytes(np.asarray(raw, np.uint8)).decode()) if raw is not None else None
-    except (ValueError, UnicodeDecodeError) as err:
-        raise StoreError(f"unreadable header ({err})", where=str(path), field="__header__") from err
+        doc = json.loads(raw.tobytes().decode()) if raw is not None else None
+    except (ValueError, RecursionError) as err:
+        raise StoreError(f"unreadable header ({describe(err)})", where=str(path), field="__header__") from err
     if not isinstance(doc, dict):
         raise StoreError("missing header", where=str(path), field="__header__")
     return doc
@@ -269,10 +264,8 @@ def read_pointer(root: str | os.PathLike[str]) -> dict[str, Any]:
     if not p.is_file():
         raise StoreError("not a graphseg store (no store.json)", where=str(root), field="store")
     try:
-        if p.stat().st_size > 2**20:
-            raise ValueError("larger than 1 MiB")
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError, OSError) as err:
+        doc = read_json(p, field="store.json", max_bytes=2**20, what="unreadable", error=StoreError)
+    except OSError as err:
         raise StoreError(f"unreadable ({(str(err).splitlines() or [''])[0]})", where=where, field="store.json") from err
     _check_version(doc, where, "format")
     g = doc.get("generation")
@@ -294,12 +287,10 @@ def read_state(root: str | os.PathLike[str], pointer: Mapping[str, Any]) -> dict
     p = _inside(r, str(pointer["state"]), str(r / POINTER), "state")
     where = str(p)
     try:
-        if p.stat().st_size > 256 * 2**20:
-            raise ValueError("larger than 256 MiB")
-        doc = json.loads(p.read_text(encoding="utf-8"))
+        doc = read_json(p, field="state", max_bytes=256 * 2**20, what="unreadable", error=StoreError)
     except FileNotFoundError as err:
         raise StoreError("file not found (the store is incomplete)", where=where, field="state") from err
-    except (ValueError, UnicodeDecodeError, OSError) as err:
+    except OSError as err:
         raise StoreError(f"unreadable ({(str(err).splitlines() or [''])[0]})", where=where, field="state") from err
     _check_version(doc, where, "format")
     for key, kind in (("views", list), ("pairs", list), ("mask_uid", list), ("mask_pid", list), ("history", list), ("config", dict), ("next_uid", int), ("next_pid", int)):
@@ -307,7 +298,65 @@ def read_state(root: str | os.PathLike[str], pointer: Mapping[str, Any]) -> dict
             raise StoreError(f"expected {kind.__name__} (got {type(doc.get(key)).__name__})", where=where, field=key)
     if doc.get("generation") != pointer["generation"]:
         raise StoreError(f"generation {doc.get('generation')!r} differs from store.json's {pointer['generation']}", where=where, field="generation")
+    _check_state(doc, where)
     return doc
+
+
+def _is_int(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool) and -(2**63) <= x < 2**63
+
+
+def _check_state(doc: dict[str, Any], where: str) -> None:
+    """The entries of a state document that the store reads: their types and the view uids the pairs name.
+
+    Raises
+    ------
+    StoreError
+        Naming the state file and the first entry that is wrong (a damaged or edited file).
+    """
+
+    def bad(field: str, want: str) -> StoreError:
+        return StoreError(f"expected {want} (a damaged or edited state file)", where=where, field=field)
+
+    uids: set[int] = set()
+    names: set[str] = set()
+    for k, v in enumerate(doc["views"]):
+        if not isinstance(v, dict) or not isinstance(v.get("name"), str) or not _is_int(v.get("uid")) or not isinstance(v.get("file"), str):
+            raise bad(f"views[{k}]", "an object with a name, an integer uid and a file")
+        if v["uid"] in uids or v["name"] in names:
+            raise bad(f"views[{k}]", "a view name and uid of its own")
+        uids.add(v["uid"])
+        names.add(v["name"])
+    for k, p in enumerate(doc["pairs"]):
+        if not isinstance(p, dict) or not _is_int(p.get("a")) or not _is_int(p.get("b")) or not isinstance(p.get("file"), str) or not isinstance(p.get("key", ""), str):
+            raise bad(f"pairs[{k}]", "an object with view uids a and b and a file")
+        if p["a"] not in uids or p["b"] not in uids:
+            raise bad(f"pairs[{k}]", f"uids of views of this generation (got {p['a']}, {p['b']})")
+    for key in ("mask_uid", "mask_pid"):
+        if not all(_is_int(x) for x in doc[key]):
+            raise bad(key, "a list of integers")
+    if len(doc["mask_uid"]) != len(doc["mask_pid"]):
+        raise bad("mask_pid", f"{len(doc['mask_uid'])} integers like mask_uid")
+    for k, h in enumerate(doc["history"]):
+        events = h.get("events") if isinstance(h, dict) else None
+        if (
+            not isinstance(h, dict)
+            or not _is_int(h.get("generation"))
+            or not isinstance(h.get("added"), list)
+            or not all(isinstance(n, str) for n in h["added"])
+            or not isinstance(events, list)
+            or not all(isinstance(e, dict) and isinstance(e.get("event"), str) for e in events)
+        ):
+            raise bad(f"history[{k}]", "an object with a generation, the views added and the events")
+    objects = doc.get("objects") or {}
+    if not isinstance(objects, dict) or not all(re.fullmatch(r"-?[0-9]+", k) for k in objects):
+        raise bad("objects", "an object keyed by ground-truth ids")
+    ids = doc.get("object_ids", [])
+    if not isinstance(ids, list) or not all(_is_int(x) for x in ids):
+        raise bad("object_ids", "a list of integers")
+    for key in ("name", "lifter"):
+        if doc.get(key) is not None and not isinstance(doc[key], str):
+            raise bad(key, "a string")
 
 
 def commit(root: str | os.PathLike[str], generation: int, state_rel: str, result_rel: str | None) -> None:
@@ -418,6 +467,11 @@ def write_view(root: str | os.PathLike[str], data: Any) -> str:
     return rel
 
 
+#: The dtype kinds of the arrays of a view file (others: numbers or booleans).
+_VIEW_KINDS = {"rgb": "u", "points": "f", "depth": "f", "confidence": "f", "K": "f", "cam_to_world": "f", "background": "b", "labels": "iu", "instances": "iu", "masks": "biu"}
+_KIND_WORDS = {"u": "unsigned integers", "f": "floats", "b": "booleans", "iu": "integers", "biu": "booleans or integers", "biuf": "numbers"}
+
+
 def read_view(root: str | os.PathLike[str], rel: str, *, masks: bool = False, full: bool = True) -> Any:
     """Read a view written by :func:`write_view` (a :class:`~graphseg.store.incremental.ViewData`).
 
@@ -432,6 +486,13 @@ def read_view(root: str | os.PathLike[str], rel: str, *, masks: bool = False, fu
     path = _inside(r, rel, str(r), "views")
     a = _loadz(path, skip=(() if masks else ("masks",)) + (() if full else ("depth", "instances")))
     meta = _header(a, path)
+    for key in ("info", "view_meta"):
+        if not isinstance(meta.get(key) or {}, dict):
+            raise StoreError(f"expected an object (got {type(meta[key]).__name__})", where=str(path), field=f"__header__.{key}")
+    for key, arr in a.items():
+        kind = _VIEW_KINDS.get(key, "biuf")
+        if key != "__header__" and arr.dtype.kind not in kind:
+            raise StoreError(f"expected {_KIND_WORDS[kind]} (got {arr.dtype})", where=str(path), field=key)
     field = "rgb"
     try:
         rgb = a["rgb"]
@@ -450,6 +511,9 @@ def read_view(root: str | os.PathLike[str], rel: str, *, masks: bool = False, fu
             instances=a.get("instances"),
             meta=dict(meta.get("view_meta") or {}),
         )
+        field = "points"
+        if np.isinf(view.points).any():
+            raise StoreError("contains inf (NaN marks invalid points)", where=str(path), field=field)
         field = "view"
         view.validate()
         nodes = {k.split("/", 1)[1]: v for k, v in a.items() if k.startswith("nodes/")}

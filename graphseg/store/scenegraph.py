@@ -301,7 +301,15 @@ class SceneGraph:
     @property
     def config(self) -> Config:
         """The store's configuration (fixed when it was created)."""
-        return Config.model_validate(self._state["config"])
+        try:
+            return Config.model_validate(self._state["config"])
+        except ValueError as err:  # pydantic's ValidationError: name a plugin that is not installed here
+            from ..result import missing_plugin
+
+            missing = missing_plugin(self._state["config"])
+            if missing:
+                raise StoreError(missing, where=str(self.root), field="config") from err
+            raise
 
     @property
     def generation(self) -> int:

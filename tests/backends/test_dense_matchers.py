@@ -188,6 +188,7 @@ def small_roma(romatch, tmp_path_factory):
     d = tmp_path_factory.mktemp("roma")
     torch.save(dino, d / "dinov2_vitl14_pretrain.pth")
     torch.save(model.state_dict(), d / "roma_outdoor.pth")
+    del model, dino  # the files are what the tests load: don't hold a second RoMa all module long
     yield d / "roma_outdoor.pth", d / "dinov2_vitl14_pretrain.pth"
     mp.undo()
 

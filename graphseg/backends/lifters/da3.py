@@ -32,7 +32,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from ...registry import MissingDependencyError
+from ...registry import TORCH_CPU, MissingDependencyError
 from ...scene import Scene, SceneError, backproject
 from ..imaging import IMAGENET_MEAN, IMAGENET_STD
 from ..options import ModelBackend
@@ -98,7 +98,8 @@ def _import(module: str) -> Any:
     try:
         return importlib.import_module(module)
     except ImportError as err:
-        raise MissingDependencyError(f"the da3 lifter needs {module!r} ({err}): {INSTALL}; checkpoint: --backend-option da3.checkpoint=PATH") from err
+        first = f"{TORCH_CPU} && " if module.split(".")[0] == "torch" else ""
+        raise MissingDependencyError(f"the da3 lifter needs {module!r} ({err}): {first}{INSTALL}; checkpoint: --backend-option da3.checkpoint=PATH") from err
 
 
 def load_da3(model: str, checkpoint: str | Path | None = None) -> Any:
