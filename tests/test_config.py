@@ -239,9 +239,14 @@ def test_lifted_points_get_their_own_criterion_options():
     assert sfm.criterion_options("chamfer_3d")["tau"] == cfg.criterion_options("chamfer_3d")["tau"]  # the rest kept
     assert cfg.for_lifter("rgbd") is cfg and cfg.for_lifter(None) is cfg and cfg.for_lifter("given") is cfg
     assert cfg.criterion_options("chamfer_3d")["fragment_ratio"] is None  # not mutated
-    assert sfm.objects == cfg.objects  # no object overrides by default
+    assert sfm.objects.model_dump(exclude={"min_measured", "min_object_fraction"}) == cfg.objects.model_dump(exclude={"min_measured", "min_object_fraction"})
+    assert (cfg.objects.min_measured, cfg.objects.min_object_fraction) == (0.0, 0.0)  # measured depth: off
+    assert (sfm.objects.min_measured, sfm.objects.min_object_fraction) == (0.2, 0.008)  # estimated points: issue 52
+    mine_objects = Config.preset("rgbd", objects={"min_object_fraction": 0.002}).for_lifter("sfm").objects
+    assert mine_objects.min_object_fraction == 0.002 and mine_objects.min_measured == 0.2  # a field the user changed wins over the default
     three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
     assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
+    assert three.objects.min_measured == 0.0  # the user's lifted.objects replaces the whole default
     off = Config.preset("rgbd", lifted={"criteria": {}, "objects": {}, "split": {}, "backend_options": {}, "trim": {}, "grow": {}})
     assert off.for_lifter("sfm") is off
     assert cfg.split.merge_ncut == 0.022 and sfm.split.merge_ncut is None  # estimated points never join objects
