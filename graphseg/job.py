@@ -335,6 +335,9 @@ def run_job(
     backends = backends_for_lifter(backends, cfg, scene.meta.get("lifter"), segmenter=segmenter, matcher=matcher)
     result = run(scene, cfg, segmenter=backends["segmenter"], matcher=backends["matcher"], progress=progress)
     timings["run"] = time.perf_counter() - t
+    why = result.info.get("no_objects")
+    if why:  # run.json says which step lost every object (the same line is among the warnings)
+        info["no_objects"] = {"step": why["step"], "reason": why["line"]}
     t = time.perf_counter()
     metrics = evaluate_scene(result, scene)
     if metrics is not None:  # ground truth: audit the edges too (shown in report.html and metrics.json)

@@ -18,6 +18,8 @@ import time
 from os import PathLike
 from typing import Any
 
+import numpy as np
+
 from .backends.options import option_fields
 from .backends.registry import features as feature_registry
 from .backends.registry import lifters, matchers, segmenters
@@ -27,7 +29,7 @@ from .method.segment import segment
 from .result import Result
 from .scene import Matches, Scene
 
-__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry", "progress_bar"]
+__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry", "progress_bar", "no_objects_reason", "NO_OBJECT_STEPS"]
 
 #: The backend kinds and their registries (entry-point groups ``graphseg.segmenters``, ...).
 BACKEND_REGISTRIES: dict[str, Any] = {"segmenter": segmenters, "matcher": matchers, "lifter": lifters, "features": feature_registry}
@@ -154,6 +156,124 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
     lifted = resolve_backend("lifter", lifter or default, cfg)(scene)
     lifted.meta["lifter"] = _name(lifter, default)
     return lifted
+
+
+#: The steps :func:`no_objects_reason` names, in the order a run passes them.
+NO_OBJECT_STEPS = ("registration", "lifting", "masks", "background", "support")
+
+#: Below this share of the pixels with a 3D point, a run that lost every mask to the background
+#: (or kept none) is said to have lost them at the lifting step (:func:`no_objects_reason`).
+SPARSE_LIFT = 0.25
+
+#: The warnings :func:`graphseg.method.segment.segment` gives for no object, replaced by :func:`no_objects_reason`'s line in :func:`run`.
+_GENERIC_NO_OBJECT = ("no usable masks (", "0 objects found")
+
+
+def no_objects_reason(result: Result, scene: Scene, config: Config | None = None) -> dict[str, Any] | None:
+    """Which step of a run lost every object, in one line (None when the run found an object).
+
+    The steps, in the order a run passes them (:data:`NO_OBJECT_STEPS`):
+    ``lifting`` (no view has a valid 3D point), ``masks`` (the segmenter gave
+    no mask, or every mask was below ``masks.min_area``), ``background``
+    (every mask lay mostly in the background class: the table plane, below
+    it, beyond the table or too far), ``support`` (objects were formed, and
+    every one was below the minimum support, ``config.objects``). Masks lost
+    (to the background, or below their minimum area) where 3D points cover
+    less than :data:`SPARSE_LIFT` of the pixels count as lost at the
+    ``lifting`` step (structure from motion found too few points). When the
+    lifter left views out (structure from motion registered only some, or a
+    view's pose looked wrong), the line says so, and the step is
+    ``registration`` when it kept at most half of the views.
+
+    Parameters
+    ----------
+    result : Result
+        The run's result (its ``info`` holds ``masks``, ``background`` and ``support``).
+    scene : Scene
+        The lifted scene the result was segmented on.
+    config : Config, optional
+        The configuration of the run (for the thresholds the line names;
+        default ``result.config``).
+
+    Returns
+    -------
+    dict or None
+        ``{"step": one of NO_OBJECT_STEPS, "line": str}``, plus the counts the
+        line names; None when ``result`` has objects.
+
+    Examples
+    --------
+    >>> from graphseg.testing.scenes import box_scene, TWO_BOXES
+    >>> import numpy as np
+    >>> scene = box_scene(TWO_BOXES, views=2, shape=(48, 64))
+    >>> empty = run(scene, masks=[np.zeros((48, 64), np.int32)] * 2)
+    >>> why = no_objects_reason(empty, scene)
+    >>> why["step"], why["line"]
+    ('masks', '0 objects: lost at the masks step: the segmenter gave no mask in any of the 2 views')
+    >>> empty.info["warnings"] == [why["line"]]
+    True
+    """
+    if result.num_objects:
+        return None
+    cfg = config or result.config
+    n = len(scene.views)
+    valid = sum(int(np.isfinite(np.asarray(v.points)).all(-1).sum()) for v in scene.views if v.points is not None)
+    composed = result.info.get("masks") or []
+    given = sum(int(m.get("num_input", 0)) for m in composed)
+    on_bg = sum(len(m.get("dropped_background", ())) for m in composed)
+    small = sum(len(m.get("dropped_small", ())) for m in composed)
+    kept = sum(len(m.get("kept", ())) for m in composed)
+    support = result.info.get("support") or {}
+    out: dict[str, Any] = {"views": n, "valid_points": valid, "masks": given, "masks_background": on_bg, "masks_small": small, "masks_kept": kept}
+    if valid == 0:
+        out["step"] = "lifting"
+        text = f"the lifter ({scene.meta.get('lifter', 'given')}) gave no valid 3D point in any of the {n} views"
+    elif given == 0:
+        out["step"] = "masks"
+        text = f"the segmenter gave no mask in any of the {n} views"
+    elif kept == 0 and on_bg >= small:
+        out["step"] = "background"
+        fractions = (result.info.get("background") or {}).get("fraction") or []
+        share = f"; the background class covered {100 * float(np.mean(fractions)):.0f}% of the pixels" if fractions else ""
+        text = (
+            f"all {given} masks were dropped: {on_bg} lay at least {100 * cfg.background.max_overlap:.0f}% in the background class "
+            f"(the table plane, below it, beyond the table or too far; config background){share}"
+            + (f", {small} were below masks.min_area {cfg.masks.min_area}" if small else "")
+        )
+    elif kept == 0:
+        out["step"] = "masks"
+        text = f"all {given} masks were dropped: {small} were below masks.min_area {cfg.masks.min_area} pixels" + (f", {on_bg} lay in the background class" if on_bg else "")
+    else:
+        out["step"] = "support"
+        unmeasured, final = int(support.get("unmeasured") or 0), int(support.get("dropped_final") or 0)
+        text = (
+            f"the {kept} masks formed {int(support.get('dropped', 0)) + final} candidate objects, every one below the minimum support "
+            f"(seen in objects.min_views {support.get('min_views', cfg.objects.min_views)} views, {support.get('min_points', '?')} points"
+            + (f"; {unmeasured} mostly of filled-in points, objects.min_measured {cfg.objects.min_measured:g}" if unmeasured else "")
+            + (f"; {final} final objects below their support, objects.min_object_fraction {cfg.objects.min_object_fraction:g}" if final else "")
+            + ")"
+        )
+    pixels = sum(int(np.prod(v.shape)) for v in scene.views)
+    coverage = valid / pixels if pixels else 0.0
+    out["coverage"] = round(coverage, 4)
+    sfm = scene.meta.get("sfm") or {}
+    if 0 < coverage < SPARSE_LIFT and out["step"] in ("masks", "background"):  # the masks had too few points to stand on
+        out["step"] = "lifting"
+        how = ""
+        if sfm.get("points") is not None:
+            dense = sfm.get("dense_fraction") or []
+            how = f" (structure from motion triangulated {int(sfm['points'])} points" + (f", dense stereo covered {100 * float(np.mean(dense)):.1f}% of the pixels" if dense else "") + ")"
+        text = f"3D points cover only {100 * coverage:.0f}% of the pixels{how}, and then {text}; give depth, or take photos with more texture and overlap"
+    dropped = list(scene.meta.get("dropped_views") or [])
+    total = n + len(dropped)
+    if dropped:
+        registered = int(sfm.get("registered", n))
+        how = f"structure from motion registered {registered} of {total} views" if registered < total else f"the lifter kept {n} of {total} views"
+        text += f"; {how} and segmented {n}, so the points may be wrong"
+        if 2 * n <= total:
+            out["step"] = "registration"
+    out["line"] = f"0 objects: lost at the {out['step']} step: {text}"
+    return out
 
 
 def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = None, *, progress: bool = False) -> list[Any]:
@@ -314,6 +434,11 @@ def run(
         result.info["warnings"] = [*lift_warnings, *result.info.get("warnings", [])]
     if scene.meta.get("dropped_views"):
         result.info["dropped_views"] = list(scene.meta["dropped_views"])
+    why = no_objects_reason(result, scene, cfg)
+    if why is not None:  # one line that names the step that lost every object, instead of segment's generic ones
+        result.info["no_objects"] = why
+        kept = [w for w in result.info.get("warnings", []) if not w.startswith(_GENERIC_NO_OBJECT)]
+        result.info["warnings"] = [*kept, why["line"]]
     result.info["pipeline"] = {
         "segmenter": "given" if masks_given else _name(segmenter, cfg.backends.segmenter),
         "matcher": "given" if matches_given else (_name(matcher, cfg.backends.matcher) if "matches" in cfg.requires() else None),

@@ -241,9 +241,9 @@ def test_lifted_points_get_their_own_criterion_options():
     assert cfg.criterion_options("chamfer_3d")["fragment_ratio"] is None  # not mutated
     assert sfm.objects.model_dump(exclude={"min_measured", "min_object_fraction"}) == cfg.objects.model_dump(exclude={"min_measured", "min_object_fraction"})
     assert (cfg.objects.min_measured, cfg.objects.min_object_fraction) == (0.0, 0.0)  # measured depth: off
-    assert (sfm.objects.min_measured, sfm.objects.min_object_fraction) == (0.2, 0.008)  # estimated points: issue 52
+    assert (sfm.objects.min_measured, sfm.objects.min_object_fraction) == (0.1, 0.008)  # estimated points: issue 52
     mine_objects = Config.preset("rgbd", objects={"min_object_fraction": 0.002}).for_lifter("sfm").objects
-    assert mine_objects.min_object_fraction == 0.002 and mine_objects.min_measured == 0.2  # a field the user changed wins over the default
+    assert mine_objects.min_object_fraction == 0.002 and mine_objects.min_measured == 0.1  # a field the user changed wins over the default
     three = Config.preset("rgbd", lifted={"objects": {"min_views": 3}}).for_lifter("sfm")
     assert three.objects.min_views == 3 and three.objects.merge_seen == cfg.objects.merge_seen
     assert three.objects.min_measured == 0.0  # the user's lifted.objects replaces the whole default

@@ -452,6 +452,144 @@ def apply_min_support(
     return new_obj, new_labels, info
 
 
+def measured_points(labels: Sequence[np.ndarray], views: Sequence[View], points: Sequence[np.ndarray], num_objects: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Valid points and measured points of every object, over the views whose lifter recorded its fill confidence.
+
+    A lifter that fills holes in its point maps (the ``sfm`` lifter's
+    colour-region planes) records in ``View.meta["fill_confidence"]`` the
+    confidence it gives a point that nothing measured; a point counts as
+    measured when its confidence is above that.
+
+    Returns
+    -------
+    (total, measured) : int64 ``[num_objects + 1]`` each (index = object id; 0 = none), or None
+        None when no view has the record (and a confidence).
+    """
+    tested = [i for i, v in enumerate(views) if v.confidence is not None and v.meta.get("fill_confidence") is not None]
+    if not tested:
+        return None
+    total = np.zeros(num_objects + 1, np.int64)
+    measured = np.zeros(num_objects + 1, np.int64)
+    for i in tested:
+        lab = np.asarray(labels[i], np.int64)
+        valid = np.isfinite(np.asarray(points[i])).all(-1)
+        good = valid & (np.asarray(views[i].confidence) > float(views[i].meta["fill_confidence"]))
+        lab = np.where(valid & (lab <= num_objects), lab, num_objects + 1)  # the other pixels go to a bin of their own
+        total += np.bincount(lab.ravel(), minlength=num_objects + 2)[: num_objects + 1]
+        measured += np.bincount(lab[good], minlength=num_objects + 2)[: num_objects + 1]
+    return total, measured
+
+
+def _weak_measured(total: np.ndarray, measured: np.ndarray, min_measured: float) -> np.ndarray:
+    """Ids (> 0) of the objects whose measured share is below ``min_measured`` (:func:`measured_points`; index 0 holds the unlabelled pixels)."""
+    weak = np.flatnonzero((total > 0) & (measured < min_measured * total))
+    return weak[weak > 0]
+
+
+def _relabel(labels: Sequence[np.ndarray], weak: np.ndarray, num_objects: int) -> tuple[list[np.ndarray], np.ndarray]:
+    """``labels`` with the objects ``weak`` (ids) unlabelled and the others renumbered ``1..K`` in order; and the id map ``[num_objects + 1]``."""
+    keep = np.ones(num_objects + 1, bool)
+    keep[0] = False
+    keep[weak] = False
+    remap = np.zeros(num_objects + 1, np.int64)
+    remap[keep] = np.arange(1, int(keep.sum()) + 1)
+    return [remap[np.asarray(lab, np.int64)].astype(np.asarray(lab).dtype) for lab in labels], remap
+
+
+def drop_unmeasured(labels: Sequence[np.ndarray], views: Sequence[View], points: Sequence[np.ndarray], min_measured: float) -> tuple[list[np.ndarray], int]:
+    """Unlabel the objects less than ``min_measured`` of whose valid points measurement supports (:func:`measured_points`).
+
+    An object whose share of measured points (over all views that have the
+    record) is below ``min_measured`` is a surface the fill invented (far
+    floor or wall seen past the table, a table patch at a wrong depth), not an
+    object: its pixels become 0, and :func:`apply_min_support` then drops it
+    like any object with no support. Views without the record, or without
+    confidence, are not tested. The other ids are kept as they are.
+
+    Parameters
+    ----------
+    labels : list of int ``[H, W]``
+        Object ids per view (0 = none).
+    views : list of View
+        Their ``confidence`` and ``meta["fill_confidence"]`` are read.
+    points : list of float ``[H, W, 3]``
+    min_measured : float
+        0 returns ``labels`` unchanged.
+
+    Returns
+    -------
+    labels : list of int ``[H, W]``
+        New arrays where an object was unlabelled, else the inputs.
+    dropped : int
+        Objects unlabelled.
+
+    Examples
+    --------
+    >>> from graphseg.scene import View
+    >>> conf = np.array([[0.25, 0.25, 0.25, 0.9]], np.float32)
+    >>> v = View("a", np.zeros((1, 4, 3), np.uint8), confidence=conf, meta={"fill_confidence": 0.25})
+    >>> out, n = drop_unmeasured([np.array([[1, 1, 2, 2]])], [v], [np.zeros((1, 4, 3))], 0.2)
+    >>> out[0].tolist(), n
+    ([[0, 0, 2, 2]], 1)
+    """
+    if min_measured <= 0:
+        return list(labels), 0
+    k = max((int(np.max(lab)) for lab in labels if np.size(lab)), default=0)
+    shares = measured_points(labels, views, points, k)
+    if shares is None:
+        return list(labels), 0
+    weak = _weak_measured(*shares, min_measured)
+    if not weak.size:
+        return list(labels), 0
+    lut = np.arange(k + 1, dtype=np.int64)
+    lut[weak] = 0
+    return [lut[np.asarray(lab, np.int64)].astype(np.asarray(lab).dtype) for lab in labels], int(weak.size)
+
+
+def drop_weak_parts(
+    labels: Sequence[np.ndarray], views: Sequence[View], points: Sequence[np.ndarray], num_objects: int, min_points: int, min_measured: float
+) -> tuple[list[np.ndarray], np.ndarray, int]:
+    """The final objects below the minimum support become background, and the rest are renumbered ``1..K``.
+
+    The split (:func:`~graphseg.method.split.split_objects`) cuts objects that
+    passed :func:`apply_min_support` into parts, and the joins put parts
+    together; on estimated points a part is often a strip of table or floor
+    that the masks held to an object. Every final object needs
+    ``min_points`` valid points over all views and, where the views record
+    their fill confidence, a ``min_measured`` share of measured points
+    (:func:`measured_points`), like any object. With the ``rgbd`` preset
+    (``min_point_fraction``: 92 points at 640 x 480; no ``min_object_fraction``
+    or ``min_measured``) every object has passed :func:`apply_min_support` and
+    every part holds at least ``split.min_voxels`` voxels, so none of measured
+    depth is dropped.
+
+    Returns
+    -------
+    labels : list of int ``[H, W]``
+    remap : int64 ``[num_objects + 1]``
+        Old id -> new id (0: dropped).
+    dropped : int
+
+    Examples
+    --------
+    >>> lab = [np.array([[1, 1, 1, 2, 3, 3]])]
+    >>> out, remap, n = drop_weak_parts(lab, [], [np.zeros((1, 6, 3))], 3, 2, 0.0)
+    >>> out[0].tolist(), remap.tolist(), n
+    ([[1, 1, 1, 0, 2, 2]], [0, 1, 0, 2], 1)
+    """
+    num_objects = max([int(num_objects)] + [int(np.max(lab)) for lab in labels if np.size(lab)])
+    _, count = object_support(labels, points, num_objects)
+    weak = np.flatnonzero(count < int(min_points)) + 1
+    if min_measured > 0:
+        shares = measured_points(labels, views, points, num_objects)
+        if shares is not None:
+            weak = np.union1d(weak, _weak_measured(*shares, min_measured))
+    if not weak.size:
+        return list(labels), np.arange(num_objects + 1, dtype=np.int64), 0
+    out, remap = _relabel(labels, weak, num_objects)
+    return out, remap, int(weak.size)
+
+
 def fragment_neighbours(labels: np.ndarray, points: np.ndarray, center: np.ndarray, keep: np.ndarray, *, tolerance: float = 0.03, min_pairs: int = 3) -> dict[int, int]:
     """Which kept object each dropped fragment of one view continues, if any.
 
@@ -907,6 +1045,10 @@ def finish_segmentation(
         empty when off), ``mask_joins`` (those of
         :func:`~graphseg.method.join.join_by_masks`; ``split.mask_join``), ``snapped`` (the pixels :func:`~graphseg.method.masks.snap_to_masks`
         relabelled; ``split.snap_share``) and ``num_objects`` (the final count).
+        ``support`` (:func:`apply_min_support`'s record) gains ``unmeasured``
+        (objects :func:`drop_unmeasured` unlabelled before it) and
+        ``dropped_final`` (final objects, after the split and the joins, below
+        the support, :func:`drop_weak_parts`).
     start : float, optional, keyword-only
         :func:`time.perf_counter` at the start of the run, for
         ``timings["total"]`` (None: not recorded).
@@ -945,6 +1087,7 @@ def finish_segmentation(
     min_points = int(np.ceil(cfg.objects.min_point_fraction * pixels))
     cameras = [(v.K, v.cam_to_world) for v in views]
     foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(points, background)]
+    out_labels, unmeasured = drop_unmeasured(out_labels, views, points, cfg.objects.min_measured)
     obj, out_labels, support = apply_min_support(
         obj,
         out_labels,
@@ -957,6 +1100,7 @@ def finish_segmentation(
         mask_view=mem["view"],
         merge=cfg.objects.merge_seen,
     )
+    support["unmeasured"] = unmeasured
     num_objects = int(obj.max()) if obj.size else 0
     split_info = None
     changed = False  # the split, merge, join or snap changed the objects
@@ -1039,6 +1183,15 @@ def finish_segmentation(
             obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
             num_objects = split_info["num_objects"]
         timings["split"] = time.perf_counter() - t_split
+    # the final objects (the split's parts, the joins) need the support too: a part is often a strip
+    # of table that the masks held to an object; objects.min_object_fraction may ask more of them
+    min_final = max(min_points, int(np.ceil(cfg.objects.min_object_fraction * pixels)))
+    out_labels, remap, support["dropped_final"] = drop_weak_parts(out_labels, views, points, num_objects, min_final, cfg.objects.min_measured)
+    if support["dropped_final"]:
+        obj = remap[obj]
+        num_objects = int(remap.max())
+        if split_info is not None:
+            split_info["num_objects"] = num_objects
     refine_info = None
     if cfg.refine.enabled:
         t_refine = time.perf_counter()
