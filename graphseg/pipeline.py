@@ -169,6 +169,43 @@ SPARSE_LIFT = 0.25
 _GENERIC_NO_OBJECT = ("no usable masks (", "0 objects found")
 
 
+def _support_text(kept: int, support: dict[str, Any], cfg: Config) -> str:
+    """:func:`no_objects_reason`'s words for objects lost to the minimum support (``support``: the run's record)."""
+    unmeasured, final = int(support.get("unmeasured") or 0), int(support.get("dropped_final") or 0)
+    return (
+        f"the {kept} masks formed {int(support.get('dropped', 0)) + final} candidate objects, every one below the minimum support "
+        f"(seen in objects.min_views {support.get('min_views', cfg.objects.min_views)} views, {support.get('min_points', '?')} points"
+        + (f"; {unmeasured} mostly of filled-in points, objects.min_measured {cfg.objects.min_measured:g}" if unmeasured else "")
+        + (f"; {final} final objects below their support, objects.min_object_fraction {cfg.objects.min_object_fraction:g}" if final else "")
+        + ")"
+    )
+
+
+def _lift_context(out: dict[str, Any], scene: Scene, valid: int, text: str) -> str:
+    """:func:`no_objects_reason`'s line with what the lifter did; moves ``out["step"]`` to ``lifting`` or ``registration`` when they lost the objects."""
+    n = len(scene.views)
+    pixels = sum(int(np.prod(v.shape)) for v in scene.views)
+    coverage = valid / pixels if pixels else 0.0
+    out["coverage"] = round(coverage, 4)
+    sfm = scene.meta.get("sfm") or {}
+    if 0 < coverage < SPARSE_LIFT and out["step"] in ("masks", "background"):  # the masks had too few points to stand on
+        out["step"] = "lifting"
+        how = ""
+        if sfm.get("points") is not None:
+            dense = sfm.get("dense_fraction") or []
+            how = f" (structure from motion triangulated {int(sfm['points'])} points" + (f", dense stereo covered {100 * float(np.mean(dense)):.1f}% of the pixels" if dense else "") + ")"
+        text = f"3D points cover only {100 * coverage:.0f}% of the pixels{how}, and then {text}; give depth, or take photos with more texture and overlap"
+    dropped = list(scene.meta.get("dropped_views") or [])
+    total = n + len(dropped)
+    if dropped:
+        registered = int(sfm.get("registered", n))
+        how = f"structure from motion registered {registered} of {total} views" if registered < total else f"the lifter kept {n} of {total} views"
+        text += f"; {how} and segmented {n}, so the points may be wrong"
+        if 2 * n <= total:
+            out["step"] = "registration"
+    return text
+
+
 def no_objects_reason(result: Result, scene: Scene, config: Config | None = None) -> dict[str, Any] | None:
     """Which step of a run lost every object, in one line (None when the run found an object).
 
@@ -245,33 +282,8 @@ def no_objects_reason(result: Result, scene: Scene, config: Config | None = None
         text = f"all {given} masks were dropped: {small} were below masks.min_area {cfg.masks.min_area} pixels" + (f", {on_bg} lay in the background class" if on_bg else "")
     else:
         out["step"] = "support"
-        unmeasured, final = int(support.get("unmeasured") or 0), int(support.get("dropped_final") or 0)
-        text = (
-            f"the {kept} masks formed {int(support.get('dropped', 0)) + final} candidate objects, every one below the minimum support "
-            f"(seen in objects.min_views {support.get('min_views', cfg.objects.min_views)} views, {support.get('min_points', '?')} points"
-            + (f"; {unmeasured} mostly of filled-in points, objects.min_measured {cfg.objects.min_measured:g}" if unmeasured else "")
-            + (f"; {final} final objects below their support, objects.min_object_fraction {cfg.objects.min_object_fraction:g}" if final else "")
-            + ")"
-        )
-    pixels = sum(int(np.prod(v.shape)) for v in scene.views)
-    coverage = valid / pixels if pixels else 0.0
-    out["coverage"] = round(coverage, 4)
-    sfm = scene.meta.get("sfm") or {}
-    if 0 < coverage < SPARSE_LIFT and out["step"] in ("masks", "background"):  # the masks had too few points to stand on
-        out["step"] = "lifting"
-        how = ""
-        if sfm.get("points") is not None:
-            dense = sfm.get("dense_fraction") or []
-            how = f" (structure from motion triangulated {int(sfm['points'])} points" + (f", dense stereo covered {100 * float(np.mean(dense)):.1f}% of the pixels" if dense else "") + ")"
-        text = f"3D points cover only {100 * coverage:.0f}% of the pixels{how}, and then {text}; give depth, or take photos with more texture and overlap"
-    dropped = list(scene.meta.get("dropped_views") or [])
-    total = n + len(dropped)
-    if dropped:
-        registered = int(sfm.get("registered", n))
-        how = f"structure from motion registered {registered} of {total} views" if registered < total else f"the lifter kept {n} of {total} views"
-        text += f"; {how} and segmented {n}, so the points may be wrong"
-        if 2 * n <= total:
-            out["step"] = "registration"
+        text = _support_text(kept, support, cfg)
+    text = _lift_context(out, scene, valid, text)
     out["line"] = f"0 objects: lost at the {out['step']} step: {text}"
     return out
 
