@@ -24,6 +24,14 @@ from graphseg.scene import Scene, SceneError, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
 
+@pytest.fixture(scope="module")
+def plain_lift(arc_scene):
+    """The arc scene's photos (no intrinsics, no poses, no depth) and their default lift, shared by the tests
+    that only read it."""
+    photos = rgb_only(arc_scene, keep_intrinsics=False)
+    return photos, SfmLifter()(photos)
+
+
 def _rotation_errors(est, ref):
     """Degrees, after the best similarity between the camera centres."""
     s, R, _ = umeyama(np.array([T[:3, 3] for T in est]), np.array([T[:3, 3] for T in ref]))
@@ -607,14 +615,13 @@ def test_stereo_check_warning_names_every_view():
     )
 
 
-def test_a_wrongly_posed_view_is_left_out(arc_scene, monkeypatch):
+def test_a_wrongly_posed_view_is_left_out(arc_scene, plain_lift, monkeypatch):
     """Round 24 (issue 20): a registered view whose pose is wrong (here view 2's camera turned 90 degrees about its
     optical axis after structure from motion) finds few stereo depths; it is left out with one warning line, and the
     other views' stereo runs again without it. The right reconstruction loses no view."""
     from graphseg.backends.lifters import sfm
 
-    scene = rgb_only(arc_scene, keep_intrinsics=False)
-    right = SfmLifter()(scene)
+    scene, right = plain_lift
     assert [v.name for v in right.views] == [v.name for v in arc_scene.views] and "stereo_check" not in right.meta["sfm"]
     real = sfm.run_sfm
 
@@ -658,13 +665,13 @@ def test_camera_span_by_hand_and_edge_cases():
     assert camera_span([T[0], None, T[1]], 0.3)[1] == pytest.approx(0.3)  # unregistered views are skipped
 
 
-def test_cameras_close_together_are_refused_or_warned(arc_scene, monkeypatch):
+def test_cameras_close_together_are_refused_or_warned(plain_lift, monkeypatch):
     """YCB-Video's camera moves 1 cm at 1.2 m (0.5 degrees): depth from it is unreliable. The lifter refuses
     such views with one line (min_span, default MIN_SPAN); with min_span 0 it runs and warns."""
     from graphseg.backends.lifters import sfm
 
-    scene = rgb_only(arc_scene, keep_intrinsics=False)
-    assert not any("degrees apart" in w for w in SfmLifter()(scene).meta.get("warnings", []))  # the 50-degree arc
+    scene, lifted = plain_lift
+    assert not any("degrees apart" in w for w in lifted.meta.get("warnings", []))  # the 50-degree arc
     real = sfm.run_sfm
 
     def close(*args, **kwargs):

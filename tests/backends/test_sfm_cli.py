@@ -12,19 +12,29 @@ from graphseg.scene import Scene, View  # noqa: E402
 from graphseg.sim.strip import rgb_only  # noqa: E402
 
 
-def test_cli_rgb_only_run_and_failure(arc_scene, tmp_path, capsys):
+@pytest.fixture(scope="module")
+def photos_run(arc_scene, tmp_path_factory):
+    """The arc scene's photos as a plain folder (no scene.json) and one `graphseg run` of it, shared
+    by the run test and the byte-identity test (one structure-from-motion run fewer)."""
     from graphseg.cli import main
-    from graphseg.io import write_scene_folder
     from graphseg.io.images import write_rgb
-    from graphseg.metrics import evaluate
-    from graphseg.output import read_output
 
-    folder = tmp_path / "photos"  # plain images, no scene.json
+    root = tmp_path_factory.mktemp("photos_run")
+    folder = root / "photos"
     folder.mkdir()
     for v in arc_scene.views:
         write_rgb(folder / f"{v.name}.png", v.rgb)
-    assert main(["run", str(folder), "-o", str(tmp_path / "out"), "--quiet"]) == 0
-    result, _ = read_output(tmp_path / "out")
+    assert main(["run", str(folder), "-o", str(root / "out"), "--quiet"]) == 0
+    return folder, root / "out"
+
+
+def test_cli_rgb_only_run_and_failure(arc_scene, photos_run, tmp_path, capsys):
+    from graphseg.cli import main
+    from graphseg.io import write_scene_folder
+    from graphseg.metrics import evaluate
+    from graphseg.output import read_output
+
+    result, _ = read_output(photos_run[1])
     gt_points = [v.camera_points() @ v.cam_to_world[:3, :3].T + v.cam_to_world[:3, 3] for v in arc_scene.views]
     m = evaluate(result.labels, [v.instances for v in arc_scene.views], gt_points)
     # IoU pools pixels over views for one predicted id per object, so ids must agree across views;
@@ -71,30 +81,25 @@ def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path,
     assert recorded.backends.options["reprojection"]["max_color_distance"] == 30.0  # the colour test of estimated points ran
 
 
-def test_same_photos_give_byte_identical_outputs(arc_scene, tmp_path):
+def test_same_photos_give_byte_identical_outputs(arc_scene, photos_run, tmp_path):
     """Issue 20: two runs (separate processes) on the same photos write the same labels, result.npz
     and graphs, byte for byte (seeded COLMAP, matching and mapping on one thread; entries of result.npz without
-    timestamps or timings). Before, the cameras and the objects changed from run to run."""
+    timestamps or timings). Before, the cameras and the objects changed from run to run. The first
+    run is the module's in-process run, the second a fresh process."""
     import os
     import subprocess
     import sys
     from pathlib import Path
 
-    from graphseg.io.images import write_rgb
-
-    folder = tmp_path / "photos"
-    folder.mkdir()
-    for v in arc_scene.views:
-        write_rgb(folder / f"{v.name}.png", v.rgb)
+    folder, first = photos_run
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     code = "import sys\nfrom graphseg.cli import main\nsys.exit(main(sys.argv[1:]))"
-    for k in (1, 2):
-        subprocess.run([sys.executable, "-c", code, "run", str(folder), "-o", str(tmp_path / f"out{k}"), "--quiet"], check=True, env=env, timeout=300)
-    files = sorted(p.relative_to(tmp_path / "out1") for p in (tmp_path / "out1").rglob("*") if p.suffix in (".png", ".npz", ".graphml", ".ply"))
+    subprocess.run([sys.executable, "-c", code, "run", str(folder), "-o", str(tmp_path / "out2"), "--quiet"], check=True, env=env, timeout=300)
+    files = sorted(p.relative_to(first) for p in first.rglob("*") if p.suffix in (".png", ".npz", ".graphml", ".ply"))
     assert any(f.name == "result.npz" for f in files) and any(f.suffix == ".graphml" for f in files)
     assert len([f for f in files if f.parent.name == "labels"]) == len(arc_scene)
     for f in files:
-        assert (tmp_path / "out1" / f).read_bytes() == (tmp_path / "out2" / f).read_bytes(), f
+        assert (first / f).read_bytes() == (tmp_path / "out2" / f).read_bytes(), f
 
 
 def test_photos_of_a_four_object_scene_give_four_objects(tmp_path, capsys):

@@ -97,11 +97,11 @@ def test_local_worker_killed_is_reported(synth_dir, tmp_path, killer):
 @pytest.mark.slow
 def test_ray_matches_local_and_retries_killed_task(synth_dir, tmp_path, killer):
     ray = pytest.importorskip("ray")
-    local = run_batch([str(synth_dir / "*")], tmp_path / "local", methods=["graphseg", "graphseg-minus"], num_views=[2, 4])
+    local = run_batch([str(synth_dir / "*")], tmp_path / "local", methods=["graphseg", "graphseg-minus"], num_views=[2])
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
-        remote = run_batch([str(synth_dir / "*")], tmp_path / "ray", methods=["graphseg", "graphseg-minus"], num_views=[2, 4], executor=RayExecutor())
-        assert remote.ok == local.ok == 8
+        remote = run_batch([str(synth_dir / "*")], tmp_path / "ray", methods=["graphseg", "graphseg-minus"], num_views=[2], executor=RayExecutor())
+        assert remote.ok == local.ok == 4
         key = lambda r: (r["scene_label"], r["label"], r["num_views"])  # noqa: E731
         assert {key(r): r["metrics"] for r in remote.records} == {key(r): r["metrics"] for r in local.records}
         # the first attempt of the killer's task dies; Ray runs it again
