@@ -58,6 +58,14 @@ def cases():
     yield "demo_inf", scene, masks, scenes.exact_matches(scene, rng=1), Config()
     stacks = [np.stack(m) for m in masks]
     yield "demo_inf_stack", scene, stacks, scenes.exact_matches(scene, rng=1), Config(output={"voxel_size": None})
+    # the presets' steps after the last contraction (split, merge, joins, snap, refiners)
+    scene = scenes.demo_box_scene(seed=5, views=4, objects=4, shape=(120, 160))
+    masks = scenes.oracle_part_masks(scene, parts=2, rng=2)
+    matches = scenes.exact_matches(scene, rng=2)
+    for name in ("rgbd", "robust", "multicut"):
+        yield f"preset_{name}", scene, masks, matches, Config.preset(name)
+    yield "rgbd_sfm", scene, masks, matches, Config.preset("rgbd").for_lifter("sfm")
+    yield "rgbd_refine", scene, masks, matches, Config.preset("rgbd", refine={"enabled": True}, split={"join_shared": 0.3})
 
 
 def summarize(r):

@@ -198,7 +198,7 @@ def build_parser() -> argparse.ArgumentParser:
     x = sub.add_parser("export", help="export graphs / point clouds of an output folder")
     x.add_argument("out", help="output folder of graphseg run, or a store (graphseg add)")
     x.add_argument("--stage", type=int, help="stage to export (0 = the mask graph); default: every stage for --graphml, stage 0 for --pyg")
-    x.add_argument("--graphml", help="write the graph of --stage as GraphML here; without --stage, stage 0 here and stage S next to it as NAME_stageS.graphml")
+    x.add_argument("--graphml", help="write the graph of --stage as GraphML here; without --stage, stage 0 here, stage S next to it as NAME_stageS.graphml and the objects graph (mask fragments, the steps after the last contraction, each node's object) as NAME_objects.graphml")
     x.add_argument("--pyg", help="write the graph of --stage (default 0) as a dict of torch tensors, readable with plain torch.load(path) (needs graphseg[torch])")
     x.add_argument("--ply", help="write one PLY per object into this folder")
     _common(x, overwrite=True)
@@ -673,6 +673,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         for s in stages:
             target = p if (args.stage is not None or s == 0) else p.with_name(f"{p.stem}_stage{s}{p.suffix}")
             files.append((target, lambda tmp, g=result.graphs[s]: write_graphml(g, tmp)))
+        if args.stage is None and result.objects_graph is not None:  # the last graph: fragments, steps, objects
+            files.append((p.with_name(f"{p.stem}_objects{p.suffix}"), lambda tmp, g=result.objects_graph: write_graphml(g, tmp)))
     if args.pyg:
         from .registry import require
 
@@ -723,6 +725,13 @@ def cmd_info(args: argparse.Namespace) -> int:
         print(f"  masks: {len(result.mask_object)}; stages: {' -> '.join('+'.join(s) for s in result.config.stage_names())}")
         for s, g in enumerate(result.graphs):
             print(f"  stage {s}: {g.num_nodes} nodes, {g.num_edges} edges")
+        og = result.objects_graph
+        if og is not None:
+            live = sum(1 for c in og.edge_attr.get("cut_by", []) if c == "")
+            print(_printable(f"  objects graph: {og.num_nodes} fragments, {og.num_edges} edges ({live} live); steps: {' -> '.join(og.meta.get('steps', []))}"))
+        refiners = result.info.get("refiners") or {}
+        if refiners.get("pixels"):
+            print(f"  pixel refiners moved {refiners['pixels']} pixels ({100 * refiners.get('fraction', 0):.2f}%)")
         mj = p / "metrics.json"
         if mj.is_file():
             try:

@@ -10,6 +10,8 @@
       objects/OBJ_mesh.ply   per-object mesh fused from all views (open3d installed; graphseg.objects3d)
       objects.json           per object: views, points, centroid, boxes, mesh file (or null and why)
       graphs/stageS.graphml  one GraphML per stage S = 0, 1, ... (the graph with that stage's edges)
+      graphs/objects.graphml the objects graph: mask fragments, the steps after the last contraction
+                             as edges and cuts, each node's object (Result.objects_graph)
       result.npz             the native result file (Result.load)
       config.yaml            the configuration used
       run.json               scene path, views (and their file names), backends, timings
@@ -671,6 +673,8 @@ def fill_output(
     write_objects(tmp, scene, result)
     for s, g in enumerate(result.graphs):
         write_graphml(g, tmp / "graphs" / f"stage{s}.graphml")
+    if result.objects_graph is not None:
+        write_graphml(result.objects_graph, tmp / "graphs" / "objects.graphml")
     result.save(tmp / RESULT_FILE)
     result.config.save(tmp / "config.yaml")
     info = dict(run_info or {})

@@ -51,6 +51,14 @@ class Result:
     background : list of bool ``[H, W]`` or None
     info : dict
         Diagnostics: background plane, per-stage edge counts and thresholds, timings.
+    objects_graph : CorrespondenceGraph or None
+        The last graph of the run (:class:`~graphseg.graphs.lineage.Lineage`):
+        mask fragments as nodes, with the steps after the last contraction
+        (split, joins, snap, minimum support) as edges and cuts, and each
+        node's ``object``. Its live components painted with its masks
+        (:func:`~graphseg.graphs.lineage.paint_objects`) are ``labels``
+        except the pixels the pixel refiners moved
+        (``info["refiners"]``). None for results written before it existed.
     """
 
     labels: list[np.ndarray]
@@ -63,6 +71,7 @@ class Result:
     view_names: list[str]
     background: list[np.ndarray] | None = None
     info: dict[str, Any] = field(default_factory=dict)
+    objects_graph: CorrespondenceGraph | None = None
 
     @property
     def num_objects(self) -> int:
@@ -142,8 +151,12 @@ class Result:
             "view_names": self.view_names,
             "info": _without_timings(json.loads(json.dumps(self.info, default=jsonable))),
             "num_stages": len(self.graphs),
+            "objects_graph": self.objects_graph is not None,
         }
-        save_native(path, {f"stage{s}": g for s, g in enumerate(self.graphs)}, arrays, meta)
+        graphs = {f"stage{s}": g for s, g in enumerate(self.graphs)}
+        if self.objects_graph is not None:
+            graphs["objects"] = self.objects_graph
+        save_native(path, graphs, arrays, meta)
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> Result:
@@ -230,6 +243,10 @@ class Result:
                 if graphs and g.members["node"].shape != graphs[0].members["node"].shape:
                     raise SceneError(f"expected members for the {graphs[0].members['node'].shape[0]} masks of stage0 (got {g.members['node'].shape[0]})", where=where, field=field)
                 graphs.append(g)
+            field = "objects"
+            objects_graph = f.graphs[field] if f.meta.get("objects_graph") is True else None
+            if objects_graph is not None and (objects_graph.masks is None or [lab.shape for lab in objects_graph.masks] != [lab.shape for lab in labels]):
+                raise SceneError("expected fragment masks of the label images' sizes", where=where, field=field)
             field = "config"
             try:
                 config = Config.model_validate(f.meta["config"])
@@ -260,6 +277,7 @@ class Result:
             config=config,
             view_names=list(names),
             background=bg,
+            objects_graph=objects_graph,
             info=info,
         )
 

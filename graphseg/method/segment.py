@@ -43,12 +43,9 @@ from ..graphs.signed import run_contractor
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
-from .grow import grow_rims
-from .join import join_by_masks, join_objects
-from .masks import compose_masks, majority_objects, paint_masks, snap_to_masks
-from .refine import project_to_view, refine_labels
-from .split import merge_objects, split_objects
-from .trim import trim_rims
+from .masks import compose_masks, paint_masks
+from .objects import StepContext, decide_objects, refine_pixels
+from .refine import project_to_view
 
 __all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
 
@@ -1082,149 +1079,14 @@ def finish_segmentation(
     timings: dict[str, float] = dict(head.get("timings") or {})
     mem = partition.members
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
-    out_labels = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
-    pixels = views[0].shape[0] * views[0].shape[1] if len(views) else 0
-    min_points = int(np.ceil(cfg.objects.min_point_fraction * pixels))
-    cameras = [(v.K, v.cam_to_world) for v in views]
-    foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(points, background)]
-    out_labels, unmeasured = drop_unmeasured(out_labels, views, points, cfg.objects.min_measured)
-    obj, out_labels, support = apply_min_support(
-        obj,
-        out_labels,
-        points,
-        cfg.objects.min_views,
-        min_points,
-        cameras=cameras,
-        foreground=foreground,
-        min_confirm=int(np.ceil(cfg.objects.confirm_fraction * pixels)),
-        mask_view=mem["view"],
-        merge=cfg.objects.merge_seen,
-    )
-    support["unmeasured"] = unmeasured
-    num_objects = int(obj.max()) if obj.size else 0
-    split_info = None
-    changed = False  # the split, merge, join or snap changed the objects
-    if cfg.split.enabled:
-        t_split = time.perf_counter()
-        sp = cfg.split
-        graph_options = sp.model_dump(include={"voxel_size", "min_voxels", "concave_weight", "concave_angle", "concave_margin"})  # the voxel graph both use
-        out_labels, split_info = split_objects(
-            out_labels,
-            points,
-            cameras,
-            max_ncut=sp.max_ncut,
-            **graph_options,
-            masks=labels if sp.own_fraction is not None else None,
-            own_fraction=sp.own_fraction or 0.0,
-            own_cover=sp.own_cover,
-            num_objects=num_objects,
-            settle_band=sp.settle_band,
-            rng=cfg.seed,
-        )
-        fine_size = sp.fine_voxel_size if sp.fine_voxel_size is not None and sp.fine_voxel_size < sp.voxel_size else None
-        split_info["fine_voxel_size"] = fine_size
-        if fine_size is not None:  # the finer grid, parts of the same area; a cut stands only where the masks own its parts
-            out_labels, fine = split_objects(
-                out_labels,
-                points,
-                cameras,
-                max_ncut=sp.max_ncut,
-                **{**graph_options, "voxel_size": fine_size, "min_voxels": round(sp.min_voxels * (sp.voxel_size / fine_size) ** 2)},
-                masks=labels,
-                own_fraction=sp.fine_own_fraction,
-                own_cover=sp.own_cover,
-                num_objects=split_info["num_objects"],
-                settle_band=sp.settle_band,
-                rng=cfg.seed,
-            )
-            split_info["fine_objects"], split_info["fine_first_new"], split_info["num_objects"] = fine["objects"], fine["first_new"], fine["num_objects"]
-            split_info["settled"] += fine["settled"]
-        changed = split_info["num_objects"] > num_objects
-        split_info["merges"], split_info["merge_mapping"] = [], None
-        if sp.merge_ncut is not None:
-            out_labels, merged = merge_objects(
-                out_labels, points, cameras, min_ncut=sp.merge_ncut, **graph_options, num_objects=split_info["num_objects"], rng=cfg.seed
-            )
-            split_info["merges"] = merged["merges"]
-            if merged["merges"]:
-                split_info["merge_mapping"] = merged["mapping"].tolist()
-                obj = merged["mapping"][obj]
-                split_info["num_objects"] = merged["num_objects"]
-                changed = True
-        joiners = (  # pieces that share most of their image border; pieces that the masks hold together and that look alike
-            ("joins", sp.join_shared, lambda lab, top, at: join_objects(lab, points, cameras, min_shared=at, num_objects=top)),
-            (
-                "mask_joins",
-                sp.mask_join,
-                lambda lab, top, at: join_by_masks(lab, labels, [v.rgb for v in views], min_cover=at, max_color=sp.mask_join_color, num_objects=top),
-            ),
-        )
-        for key, setting, join in joiners:
-            split_info[key] = []
-            if setting is None:
-                continue
-            out_labels, joined = join(out_labels, split_info["num_objects"], setting)
-            if joined["joins"]:
-                split_info[key], split_info["num_objects"] = joined["joins"], joined["num_objects"]
-                obj = joined["mapping"][obj]
-                changed = True
-        split_info["snapped"] = 0
-        if sp.snap_share is not None:  # pixels the voxel border cut off a mask go back to its object where the other views agree
-            out_labels, snapped = snap_to_masks(
-                out_labels, labels, sp.snap_share, points=points, voxel_size=sp.voxel_size, num_objects=split_info["num_objects"]
-            )
-            split_info["snapped"] = snapped["pixels"]
-            if snapped["pixels"]:
-                if snapped["mapping"] is not None:
-                    obj = snapped["mapping"][obj]
-                    split_info["num_objects"] = snapped["num_objects"]
-                changed = True
-        if changed:
-            obj = majority_objects(labels, out_labels, mem["view"], mem["mask_id"], obj)
-            num_objects = split_info["num_objects"]
-        timings["split"] = time.perf_counter() - t_split
-    # the final objects (the split's parts, the joins) need the support too: a part is often a strip
-    # of table that the masks held to an object; objects.min_object_fraction may ask more of them
-    min_final = max(min_points, int(np.ceil(cfg.objects.min_object_fraction * pixels)))
-    out_labels, remap, support["dropped_final"] = drop_weak_parts(out_labels, views, points, num_objects, min_final, cfg.objects.min_measured)
-    if support["dropped_final"]:
-        obj = remap[obj]
-        num_objects = int(remap.max())
-        if split_info is not None:
-            split_info["num_objects"] = num_objects
-    refine_info = None
-    if cfg.refine.enabled:
-        t_refine = time.perf_counter()
-        r = cfg.refine
-        out_labels, refine_info = refine_labels(
-            out_labels, points, cameras, confidence=[v.confidence for v in views], tolerance=r.tolerance, self_weight=r.self_weight, min_views=r.min_views
-        )
-        timings["refine"] = time.perf_counter() - t_refine
-    grow_info = None
-    if cfg.grow.enabled:  # before the trim, so that with both on the trim has the last word
-        t_grow = time.perf_counter()
-        out_labels, grow_info = grow_rims(out_labels, [v.rgb for v in views], band=cfg.grow.band, blur=cfg.grow.blur)
-        timings["grow"] = time.perf_counter() - t_grow
-    trim_info = None
-    if cfg.trim.enabled:
-        t_trim = time.perf_counter()
-        tr = cfg.trim
-        out_labels, trim_info = trim_rims(out_labels, [v.rgb for v in views], window=tr.window, rim=tr.rim, blur=tr.blur)
-        timings["trim"] = time.perf_counter() - t_trim
-    area = None
-    if changed:
-        sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
-        area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
-    for g in stage_graphs:  # final object id of every node of every stage graph (0: below the minimum support)
-        col = np.zeros(g.num_nodes, np.int64)
-        if area is None:
-            col[g.members["node"]] = obj
-        else:  # after a split the masks of one node can belong to different objects: the node takes the one with most pixels
-            node = np.asarray(g.members["node"], np.int64)
-            k = int(obj.max(initial=0)) + 1
-            votes = np.bincount(node * k + obj, weights=area + 1e-9, minlength=g.num_nodes * k).reshape(g.num_nodes, k)
-            col = votes.argmax(1).astype(np.int64)
-        g.node_attr["object"] = col
+    painted = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
+    ctx = StepContext(views, points, labels, background, mem["view"], mem["mask_id"], cfg)
+    steps = decide_objects(ctx, painted, obj, first_step=f"stage{len(stage_graphs) - 1}" if stage_graphs else "masks")
+    timings.update(steps.timings)
+    objects_graph = steps.lineage.graph(meta={"scene": partition.meta.get("scene")})
+    out_labels, pixel_info = refine_pixels(ctx, steps.labels, timings)
+    _object_columns(stage_graphs, labels, mem, steps.obj, steps.changed)
+    num_objects = steps.num_objects
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]
     clouds = node_point_sets(object_nodes, points, num_objects, stride=cfg.output.stride, voxel_size=cfg.output.voxel_size, colors=[v.rgb for v in views])
     timings["outputs"] = time.perf_counter() - t
@@ -1234,7 +1096,7 @@ def finish_segmentation(
         labels=out_labels,
         mask_view=mem["view"].copy(),
         mask_id=mem["mask_id"].copy(),
-        mask_object=obj.astype(np.int64),
+        mask_object=steps.obj.astype(np.int64),
         object_points=clouds,
         graphs=stage_graphs,
         config=cfg,
@@ -1243,11 +1105,32 @@ def finish_segmentation(
         info={
             **head,
             "timings": timings,
-            "support": support,
-            "split": split_info,
-            "refine": refine_info,
-            "trim": trim_info,
-            "grow": grow_info,
+            "support": steps.support,
+            "split": steps.split,
+            **pixel_info,
             "warnings": _degenerate_warnings(len(views), int(mem["node"].size), num_objects),
         },
+        objects_graph=objects_graph,
     )
+
+
+def _object_columns(stage_graphs: Sequence[CorrespondenceGraph], labels: Sequence[np.ndarray], mem: Mapping[str, np.ndarray], obj: np.ndarray, changed: bool) -> None:
+    """Final object id of every node of every stage graph (node column ``object``; 0: below the minimum support).
+
+    After a split the masks of one node can belong to different objects: the
+    node takes the one with most pixels.
+    """
+    area = None
+    if changed:
+        sizes = [np.bincount(np.asarray(lab, np.int64).ravel()) for lab in labels]  # pixels of each composed mask
+        area = np.array([sizes[v][m + 1] if m + 1 < sizes[v].size else 0 for v, m in zip(mem["view"].tolist(), mem["mask_id"].tolist())], np.float64)
+    for g in stage_graphs:
+        col = np.zeros(g.num_nodes, np.int64)
+        if area is None:
+            col[g.members["node"]] = obj
+        else:
+            node = np.asarray(g.members["node"], np.int64)
+            k = int(obj.max(initial=0)) + 1
+            votes = np.bincount(node * k + obj, weights=area + 1e-9, minlength=g.num_nodes * k).reshape(g.num_nodes, k)
+            col = votes.argmax(1).astype(np.int64)
+        g.node_attr["object"] = col

@@ -320,7 +320,7 @@ TOUCHING = (  # a red and a blue box side by side, touching along x = 0 (as in t
 def test_segment_joins_a_box_the_split_cut_in_two_but_not_two_boxes_one_mask_spans(monkeypatch):
     import sys
 
-    seg_mod = sys.modules["graphseg.method.segment"]
+    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects

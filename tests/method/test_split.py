@@ -222,7 +222,7 @@ def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(mon
     """The second pass: the fine grid, parts of the same area (200 voxels of 6 mm = 288 of 5 mm), the view masks as guard."""
     import sys
 
-    seg_mod = sys.modules["graphseg.method.segment"]
+    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     matches = exact_matches(scene)
@@ -366,7 +366,7 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
     """A split that moves a few pixels of a pure mask into the other box: the snap gives them back."""
     import sys
 
-    seg_mod = sys.modules["graphseg.method.segment"]
+    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects
@@ -396,7 +396,7 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
 def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_took_its_pixels(monkeypatch):
     import sys
 
-    seg_mod = sys.modules["graphseg.method.segment"]
+    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects
