@@ -91,7 +91,7 @@ def _batch_like_store(sg: Any, config: Any) -> Any:
     old = seg.background_masks
     seg.background_masks = lambda p, c, conf=None, rng=None: per_view_background(p, c, conf, seed=config.seed)
     try:
-        return seg.segment(Scene(sg.scene().views, name="batch"), masks, matches, config.for_method())
+        return seg.segment(Scene(sg.scene().views, name="batch"), masks, matches, config)
     finally:
         seg.background_masks = old
 

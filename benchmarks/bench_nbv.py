@@ -78,7 +78,7 @@ from _common import git_state  # noqa: E402
 
 from graphseg import Config  # noqa: E402
 from graphseg.backends.registry import matchers, segmenters  # noqa: E402
-from graphseg.method.pairs import scene_scale, select_pairs  # noqa: E402
+from graphseg.geometry import scene_scale, select_pairs  # noqa: E402
 from graphseg.method.segment import segment  # noqa: E402
 from graphseg.metrics import mean_iou  # noqa: E402
 from graphseg.nbv import DEFAULT_WEIGHTS, TERMS, sample_candidates, suggest_views  # noqa: E402

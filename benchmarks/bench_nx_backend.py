@@ -57,10 +57,10 @@ def main(argv: list[str] | None = None) -> dict:
     args = ap.parse_args(argv)
 
     import networkx as nx
+    from graphseg.graphs.nx_backend._info import default_contractor
     from scipy.sparse.csgraph import connected_components as csgraph_cc
 
     from graphseg.graphs.nx_backend import EdgeIndexGraph, component_labels
-    from graphseg.graphs.nx_backend._info import default_contractor
 
     default = default_contractor()
     t_start = time.perf_counter()

@@ -14,7 +14,7 @@ pixel coverage of object masks, median point spacing of a node's set (stride 2,
 5 mm voxels, as ``chamfer_3d`` gathers them), the fraction of same-object
 cross-view node pairs that get a 3D edge (recall) and of different-object pairs
 (false edges), for the fixed ``tau_3D = 5e-5`` m^2 and for the spacing-aware
-threshold (``graphseg.method.sparse_chamfer``), and the background step's recall
+threshold (``graphseg.graphs.chamfer``), and the background step's recall
 on true background pixels and its false rate on object pixels.
 
 Usage: python benchmarks/bench_sparse_points.py [--json PATH]
@@ -34,14 +34,15 @@ from _common import print_table, write_json  # noqa: E402
 
 
 def measure(scene, points, cfg):
-    from graphseg.graphs.chamfer import Chamfer3D, node_point_sets
-    from graphseg.method.background import background_masks
-    from graphseg.method.sparse_chamfer import (
+    from graphseg.graphs.chamfer import (
         SPACING_FACTOR,
+        Chamfer3D,
         chamfer_edges,
+        node_point_sets,
         point_spacing,
         spacing_aware_chamfer_edges,
     )
+    from graphseg.method.background import background_masks
 
     o = Chamfer3D.Options(**cfg.criterion_options("chamfer_3d"))  # the preset's tau_3D (rgbd: the official code's 5e-5)
 

@@ -35,19 +35,19 @@ from graphseg.testing import scenes  # noqa: E402
 
 def cases():
     scene, masks, matches = bench.make_inputs()
-    yield "bench_nobg", scene, masks, matches, Config(background={"enabled": False})
-    yield "bench_bg", scene, masks, matches, Config()
+    yield "bench_nobg", scene, masks, matches, Config.preset("paper", background={"enabled": False})
+    yield "bench_bg", scene, masks, matches, Config.preset("paper")
     for seed in (0, 1):
         scene, masks, matches = scenes.two_boxes_scene(seed=seed)
-        yield f"two_boxes{seed}", scene, masks, matches, Config()
+        yield f"two_boxes{seed}", scene, masks, matches, Config.preset("paper")
     scene, masks, matches = scenes.two_boxes_scene(parts=3, views=4, seed=2)
-    yield "two_boxes_p3", scene, masks, matches, Config()
-    yield "two_boxes_p3_nobg", scene, masks, matches, Config(background={"enabled": False})
+    yield "two_boxes_p3", scene, masks, matches, Config.preset("paper")
+    yield "two_boxes_p3_nobg", scene, masks, matches, Config.preset("paper", background={"enabled": False})
     scene = scenes.demo_box_scene(seed=0, views=4, objects=4, shape=(120, 160))
     masks = scenes.oracle_part_masks(scene, parts=2, rng=0)
     matches = scenes.exact_matches(scene, rng=0)
-    yield "demo", scene, masks, matches, Config()
-    yield "demo_minus", scene, masks, matches, Config.minus()
+    yield "demo", scene, masks, matches, Config.preset("paper")
+    yield "demo_minus", scene, masks, matches, Config.preset("paper").without_3d()
     scene = scenes.demo_box_scene(seed=3, views=3, objects=3, shape=(120, 160))
     for view in scene.views:  # non-finite points: inf in one coordinate, NaN rows
         p = view.points.copy()
@@ -55,9 +55,9 @@ def cases():
         p[50:52, :, 0] = np.nan
         view.points = p
     masks = scenes.oracle_part_masks(scene, parts=2, rng=1)
-    yield "demo_inf", scene, masks, scenes.exact_matches(scene, rng=1), Config()
+    yield "demo_inf", scene, masks, scenes.exact_matches(scene, rng=1), Config.preset("paper")
     stacks = [np.stack(m) for m in masks]
-    yield "demo_inf_stack", scene, stacks, scenes.exact_matches(scene, rng=1), Config(output={"voxel_size": None})
+    yield "demo_inf_stack", scene, stacks, scenes.exact_matches(scene, rng=1), Config.preset("paper", output={"voxel_size": None})
     # the presets' steps after the last contraction (split, merge, joins, snap, refiners)
     scene = scenes.demo_box_scene(seed=5, views=4, objects=4, shape=(120, 160))
     masks = scenes.oracle_part_masks(scene, parts=2, rng=2)

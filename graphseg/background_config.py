@@ -57,4 +57,4 @@ class BackgroundConfig(SectionModel):
         if isinstance(v, (int, float)) and not v > 0:
             raise ValueError(f"must be > 0, 'auto' or null (got {v})")
         return v
-    max_overlap: float = Field(0.09, ge=0, le=1, description="drop masks with at least this fraction of background pixels (paper code: 9%)")
+    max_overlap: float = Field(0.5, ge=0, le=1, description="drop masks with at least this fraction of background pixels (the paper's code: 9%, the paper preset)")

@@ -588,7 +588,7 @@ def _check_synth_args(args: argparse.Namespace) -> None:
 
 
 def _fell_off(scene: Any, args: argparse.Namespace) -> None:
-    from .sim.pybullet_scenes import fell_off_warning
+    from .scene import fell_off_warning
 
     text = fell_off_warning(scene)
     if text:

@@ -3,36 +3,48 @@
 A :class:`Config` is a pydantic model, so it validates on construction, rejects
 unknown keys (typos fail loudly), and loads from / saves to YAML or JSON.
 
-``stages`` is a list of stages; each stage is a list of edge criteria, given by
-name or as ``{name: {options}}``. Options are validated against the installed
-criterion's ``Options`` model when the config is built, so a misspelt option or
-an unknown criterion fails at once, naming the key and listing the valid ones::
+``stages`` is the whole method, one ordered list of steps. First the edge
+stages: each a list of edge criteria, given by name or as ``{name:
+{options}}``, followed by a contraction. Then the graph operations
+(:mod:`graphseg.method.operations`), by name: the minimum support, the 3D split,
+the joins, and last the pixel refiners. A list of edge stages alone gets the
+minimum support (``support``, ``support_final``). Options are validated
+against the installed criterion's or operation's ``Options`` model when the
+config is built, so a misspelt option or an unknown name fails at once,
+naming the key and listing the valid ones::
 
     stages:
       - [pixel_match]
       - [{chamfer_3d: {tau: 5.0e-5}}, {my_criterion: {k: 3}}]
+      - support
+      - split                   # its options: the split section
+      - support_final
     contractor: star            # or {name: {options}}
 
-Old config files with top-level ``pixel_match:``, ``chamfer_3d:``, ``dino:`` or
-``adder_options:`` sections still load: each section's options move into the
-stage entries of that criterion (:func:`migrate_config`).
+Old config files still load (:func:`migrate_config`): top-level
+``pixel_match:``, ``chamfer_3d:``, ``dino:`` or ``adder_options:`` sections
+move into the stage entries of that criterion, and ``enabled`` in the
+``split``, ``refine``, ``grow`` and ``trim`` sections becomes those
+operations in ``stages``.
 
 Examples
 --------
 >>> cfg = Config()
 >>> cfg.stage_names()
 [['pixel_match'], ['chamfer_3d']]
+>>> cfg.step_names()                       # the whole method: edge stages, then graph operations
+[['pixel_match'], ['chamfer_3d'], 'support', 'split', 'merge', 'join_shared', 'mask_join', 'snap', 'support_final']
 >>> Config.minus().stage_names()          # GraphSeg-minus: no 3D stage
 [['pixel_match']]
->>> cfg.criterion_options("chamfer_3d")["tau"]
-0.0005
->>> Config.preset("rgbd").criterion_options("chamfer_3d")["tau"]   # measured preset for metric RGB-D input
+>>> cfg.criterion_options("chamfer_3d")["tau"]        # the official code's tau_3D, measured for metric RGB-D input
 5e-05
+>>> Config.preset("paper").criterion_options("chamfer_3d")["tau"]   # the paper's
+0.0005
 >>> Config(stages=[["pixel_match"], [{"chamfer_3d": {"taus": 1}}]])
 Traceback (most recent call last):
 ...
 pydantic_core._pydantic_core.ValidationError: 1 validation error for Config
-stages.1.0
+stages.1.edges.0
   chamfer_3d: unknown option 'taus'; valid options: tau, voxel_size, stride, outliers, outlier_k, outlier_std_ratio, dbscan_eps, dbscan_min_samples, prune, min_confidence, spacing_factor, fragment_ratio; did you mean 'tau'? [type=criterion_options, input_value={'chamfer_3d': {'taus': 1}}, input_type=dict]
 
 Every number must be finite (``.inf`` and ``.nan`` are refused), and
@@ -54,12 +66,14 @@ import types
 import typing
 from os import PathLike
 from pathlib import Path
-from typing import Any, ClassVar, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import (
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
+    Tag,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -70,7 +84,15 @@ from pydantic_core import PydanticCustomError
 
 from .background_config import BackgroundConfig
 from .background_config import SectionModel as _Model
-from .presets import DEFAULT_PRESET, PRESET_NAMES, PRESETS
+from .presets import (
+    BASE_STAGES,
+    CANONICAL_ORDER,
+    DEFAULT_PRESET,
+    MINIMUM_SUPPORT,
+    PRESET_NAMES,
+    PRESETS,
+    SPLIT_FAMILY,
+)
 
 __all__ = [
     "Config",
@@ -170,7 +192,6 @@ class TrimConfig(_Model):
     pixels on the tuning half of ``bench_rgb_only.py``; ``docs/results.md``).
     """
 
-    enabled: bool = Field(False, description="unlabel rim pixels that look like the background beside them (estimated points: lifted.trim)")
     window: int = Field(7, ge=1, description="pixels, odd: window of the background colour (the interior's is 3 times as wide)")
     rim: int = Field(3, ge=1, description="pixels: only labelled pixels this close to an unlabelled one are tested")
     blur: float = Field(1.0, ge=0, description="pixels: Gaussian blur before the colours are read")
@@ -203,7 +224,6 @@ class GrowConfig(_Model):
     pixel or two short of the colour edge (``docs/results.md``, round 22).
     """
 
-    enabled: bool = Field(False, description="objects take the unlabelled pixels at their rim up to the nearest colour edge (estimated points: lifted.grow)")
     band: int = Field(6, ge=1, description="pixels: width of the ring around the objects that is flooded again")
     blur: float = Field(1.0, ge=0, description="pixels: Gaussian blur before the colour gradient is taken")
 
@@ -308,7 +328,9 @@ class LiftedConfig(_Model):
     @field_validator("trim", "grow")
     @classmethod
     def _known_rim_fields(cls, v: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
-        {"trim": TrimConfig, "grow": GrowConfig}[str(info.field_name)].model_validate(v)
+        if not isinstance(v.get("enabled", False), bool):
+            raise ValueError(f"enabled: expected true or false (got {v['enabled']!r})")
+        {"trim": TrimConfig, "grow": GrowConfig}[str(info.field_name)].model_validate({k: x for k, x in v.items() if k != "enabled"})  # enabled: the operation on or off
         return v
 
     @field_validator("objects")
@@ -320,7 +342,9 @@ class LiftedConfig(_Model):
     @field_validator("split")
     @classmethod
     def _known_split_fields(cls, v: dict[str, Any]) -> dict[str, Any]:
-        SplitConfig.model_validate(v)
+        if not isinstance(v.get("enabled", False), bool):
+            raise ValueError(f"enabled: expected true or false (got {v['enabled']!r})")
+        SplitConfig.model_validate({k: x for k, x in v.items() if k != "enabled"})  # enabled: the split's operations on or off
         return v
 
     @field_validator("preset")
@@ -358,14 +382,16 @@ class RefineConfig(_Model):
     (docs/results.md); the errors there are whole masks, not pixels.
     """
 
-    enabled: bool = Field(False, description="relabel object pixels by multi-view 3D consensus after contraction")
     tolerance: float = Field(0.02, gt=0, description="relative depth agreement for another view to see a pixel's point")
     self_weight: float = Field(1.0, ge=0, description="weight of a pixel's own label against the other views' votes")
     min_views: int = Field(2, ge=1, description="other views that must vote for a new object")
 
 
 class SplitConfig(_Model):
-    """3D split of objects after contraction (:func:`graphseg.method.split.split_objects`).
+    """Options of the 3D split and its joins: the graph operations ``split``, ``merge``, ``join_shared``, ``mask_join`` and ``snap``.
+
+    Each operation runs where the step list names it (:mod:`graphseg.method.operations`);
+    a threshold of None makes its operation join nothing.
 
     Each object's points from every view are fused into voxels; neighbouring
     voxels are linked, weakly across concave creases, and the graph is cut in
@@ -393,14 +419,14 @@ class SplitConfig(_Model):
     object whose pixels lie mostly (``mask_join``) in masks that hold another,
     larger object of the same mean colour (``mask_join_color``) joins it
     (:func:`graphseg.method.join.join_by_masks`): the split cut one object
-    along a crease of its own surface that no view's mask follows. Off by
-    default, 0.5 in the ``rgbd`` preset. Then, in every
+    along a crease of its own surface that no view's mask follows. 0.5 by
+    default (the ``rgbd`` method), None (off) in the other presets. Then, in every
     mask with at least ``snap_share`` of its labelled pixels in one object,
     the other pixels go to that object where the other views' masks agree at
     the same voxel (:func:`graphseg.method.masks.snap_to_masks` with the
     points, on the ``voxel_size`` grid): the voxel border cut a few pixels off
-    a mask that lies in one object. Off by default, 0.85 in the ``rgbd``
-    preset: it raised masks cut along the ground truth on YCB-Video 0002 by
+    a mask that lies in one object. 0.85 by default (the ``rgbd`` method),
+    None in the other presets: it raised masks cut along the ground truth on YCB-Video 0002 by
     0.02-0.04. Without the other views' agreement it lowered the
     ``superpixel`` rows of ``bench_quality.py``; with it, ``robust`` on 0002
     at 10 views still falls, so ``robust`` keeps it off. Chosen
@@ -408,7 +434,6 @@ class SplitConfig(_Model):
     (``docs/results.md``).
     """
 
-    enabled: bool = Field(False, description="split objects whose fused 3D points fall into parts joined by a cheap normalized cut")
     voxel_size: float = Field(0.006, gt=0, description="voxel edge (metres); voxels up to 3 edges apart are linked")
     max_ncut: float = Field(0.012, ge=0, description="cut while the best normalized cut of a part is below this")
     min_voxels: int = Field(200, ge=1, description="voxels every part keeps at least")
@@ -433,14 +458,14 @@ class SplitConfig(_Model):
         description="last, join two objects whose border without a depth step is at least this share of the smaller one's outline in the views (None: never)",
     )
     mask_join: float | None = Field(
-        None,
+        0.5,
         ge=0,
         le=1,
         description="then join an object to the larger object whose masks (those with at least 30% of their labelled pixels in that object) hold at least this share of its pixels, when their mean colours are within mask_join_color (None: never)",
     )
     mask_join_color: float = Field(10.0, ge=0, description="mask_join's largest distance of the two objects' mean CIE Lab colours (L 0..100)")
     snap_share: float | None = Field(
-        None,
+        0.85,
         gt=0.5,
         le=1,
         description="then a mask with at least this share of its labelled pixels in one object gets its other pixels back where the other views' masks agree (None: the per-pixel labels stay)",
@@ -587,6 +612,37 @@ class ContractorSpec(_PluginSpec):
         return contractors
 
 
+class OperationSpec(_PluginSpec):
+    """One graph operation of the step list: ``split`` or ``{my_operation: {options}}``.
+
+    Built-in operations (:mod:`graphseg.method.operations`) take no options
+    here: they read their config section (``split``, ``objects``, ...).
+
+    Examples
+    --------
+    >>> OperationSpec.model_validate("snap").model_dump()
+    'snap'
+    >>> OperationSpec.model_validate("snp")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    pydantic_core._pydantic_core.ValidationError: 1 validation error for OperationSpec
+      unknown graph operation 'snp'; installed choices: support, split, merge, ...
+    """
+
+    _what: ClassVar[str] = "graph operation"
+
+    @classmethod
+    def _registry(cls) -> Any:
+        from .graphs.registry import operations
+
+        return operations
+
+    @property
+    def kind(self) -> str:
+        """``"objects"`` (recorded in the objects graph) or ``"pixels"`` (a pixel refiner)."""
+        return str(getattr(self.plugin(), "kind", "objects"))
+
+
 #: Old top-level sections and the criterion whose stage entries receive them.
 LEGACY_SECTIONS: dict[str, str] = {"pixel_match": "pixel_match", "chamfer_3d": "chamfer_3d", "dino": "dino"}
 
@@ -619,6 +675,11 @@ def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
     stages = out.get("stages", _DEFAULT_STAGES)
     if not isinstance(stages, list):
         return out
+    flags = {k: out[k].get("enabled") for k in ("split", "refine", "grow", "trim") if isinstance(out.get(k), dict) and "enabled" in out[k]}
+    if flags:
+        for k in flags:
+            out[k] = {f: v for f, v in out[k].items() if f != "enabled"}
+        out["stages"] = stages = with_operations(stages, {k: bool(v) for k, v in flags.items()})
     changed = False
     new_stages: list[Any] = []
     for stage in stages:
@@ -643,7 +704,73 @@ def migrate_config(data: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-_DEFAULT_STAGES: list[list[Any]] = [["pixel_match"], ["chamfer_3d"]]
+_DEFAULT_STAGES: list[Any] = BASE_STAGES
+
+_FAMILIES: dict[str, tuple[str, ...]] = {"split": SPLIT_FAMILY, "refine": ("refine",), "grow": ("grow",), "trim": ("trim",)}
+
+
+def _entry_name(entry: Any) -> str | None:
+    """The name of a graph operation entry (a string, ``{name: options}`` or a spec); None for an edge stage."""
+    if isinstance(entry, OperationSpec):
+        return entry.name
+    if isinstance(entry, str):
+        return entry
+    if isinstance(entry, dict) and len(entry) == 1:
+        return str(next(iter(entry)))
+    return None
+
+
+def with_operations(stages: list[Any], switches: dict[str, bool]) -> list[Any]:
+    """``stages`` with the operations of each section switched on or off (the old ``enabled`` flags).
+
+    ``switches`` maps a section (``split``, ``refine``, ``grow``, ``trim``) to
+    whether its operations run; operations switched on are inserted in
+    :data:`~graphseg.presets.CANONICAL_ORDER` among the ones present. A list
+    of edge stages only gets the minimum support first.
+
+    Examples
+    --------
+    >>> with_operations([["pixel_match"]], {"split": True, "trim": False})
+    [['pixel_match'], 'support', 'split', 'merge', 'join_shared', 'mask_join', 'snap', 'support_final']
+    >>> with_operations([["pixel_match"], "support", "split", "support_final"], {"split": False})
+    [['pixel_match'], 'support', 'support_final']
+    """
+    out = list(stages)
+    if not any(_entry_name(e) is not None for e in out):
+        out += list(MINIMUM_SUPPORT)
+    for section, on in switches.items():
+        family = _FAMILIES[section]
+        if not on:
+            out = [e for e in out if _entry_name(e) not in family]
+            continue
+        for name in family:
+            if not any(_entry_name(e) == name for e in out):
+                out = _insert_operation(out, name)
+    return out
+
+
+def _insert_operation(steps: list[Any], name: str) -> list[Any]:
+    """``steps`` with the built-in operation ``name`` inserted in :data:`~graphseg.presets.CANONICAL_ORDER`."""
+    rank = CANONICAL_ORDER.index(name)
+    after = [i for i, e in enumerate(steps) if _entry_name(e) in CANONICAL_ORDER and CANONICAL_ORDER.index(str(_entry_name(e))) < rank]
+    at = after[-1] + 1 if after else next((i for i, e in enumerate(steps) if _entry_name(e) is not None), len(steps))
+    return [*steps[:at], name, *steps[at:]]
+
+def _parse_steps(steps: list[Any]) -> list[Any]:
+    return [[e if isinstance(e, CriterionSpec) else CriterionSpec.model_validate(e) for e in s] if isinstance(s, list) else s if isinstance(s, OperationSpec) else OperationSpec.model_validate(s) for s in steps]
+
+
+#: One entry of ``stages``: an edge stage (a list of criteria) or a graph operation (a name or ``{name: options}``).
+Step = Annotated[
+    Annotated[list[CriterionSpec], Tag("edges")] | Annotated[OperationSpec, Tag("operation")],
+    Discriminator(lambda v: "edges" if isinstance(v, list) else "operation"),
+]
+_STEP_TAGS: dict[str, Any] = {"edges": list[CriterionSpec], "operation": OperationSpec}
+
+
+def _step_label(step: Any) -> str:
+    return "[" + ", ".join(c.name for c in step) + "]" if isinstance(step, list) else step.name
+
 
 class Config(_Model):
     """Everything a GraphSeg run needs besides its inputs.
@@ -664,7 +791,7 @@ class Config(_Model):
     pairs: PairConfig = Field(default_factory=PairConfig)
     output: OutputConfig = Field(default_factory=OutputConfig)
     backends: BackendConfig = Field(default_factory=BackendConfig)
-    stages: list[list[CriterionSpec]] = Field(default_factory=lambda: [[CriterionSpec.model_validate(n) for n in s] for s in _DEFAULT_STAGES])
+    stages: list[Step] = Field(default_factory=lambda: _parse_steps(_DEFAULT_STAGES))
     contractor: ContractorSpec = Field(default_factory=lambda: ContractorSpec.model_validate("star"))
     method: Literal["graphseg", "graphseg-minus", "maskclustering", "sam3d"] = Field("graphseg", description="graphseg-minus: no 3D stage; maskclustering / sam3d: the baselines of graphseg.method.baselines")
     seed: int | None = Field(0, ge=0, description="random seed (None: fresh entropy)")
@@ -672,17 +799,34 @@ class Config(_Model):
     @model_validator(mode="before")
     @classmethod
     def _migrate(cls, data: Any) -> Any:
-        if isinstance(data, dict) and any(k in data for k in (*LEGACY_SECTIONS, "adder_options")):
+        if isinstance(data, dict) and (
+            any(k in data for k in (*LEGACY_SECTIONS, "adder_options")) or any(isinstance(data.get(k), dict) and "enabled" in data[k] for k in _FAMILIES)
+        ):
             return migrate_config(data)
         return data
 
+    @field_validator("stages", mode="before")
+    @classmethod
+    def _steps(cls, v: Any) -> Any:
+        if not isinstance(v, list):
+            return v
+        if not any(_entry_name(e) is not None for e in v):  # edge stages only: the minimum support follows
+            v = [*v, *MINIMUM_SUPPORT]
+        return v
+
     @field_validator("stages")
     @classmethod
-    def _stages_not_empty(cls, v: list[list[CriterionSpec]]) -> list[list[CriterionSpec]]:
-        if not v or any(not s for s in v):
-            raise ValueError("stages must be a non-empty list of non-empty criterion lists")
+    def _stages_not_empty(cls, v: list[Any]) -> list[Any]:
+        edge = [s for s in v if isinstance(s, list)]
+        if not edge or any(not s for s in edge):
+            raise PydanticCustomError("steps", "stages must start with non-empty lists of criteria (the edge stages)")
+        kinds = ["edges" if isinstance(s, list) else s.kind for s in v]
+        if "edges" in kinds[kinds.index("edges") + 1 :] and any(k != "edges" for k in kinds[: len(kinds) - kinds[::-1].index("edges")]):
+            raise PydanticCustomError("steps", "graph operations come after the last edge stage (got {got})", {"got": ", ".join(_step_label(s) for s in v)})
+        if "pixels" in kinds and "objects" in kinds[kinds.index("pixels") :]:
+            raise PydanticCustomError("steps", "pixel refiners come after every graph operation that decides objects (got {got})", {"got": ", ".join(_step_label(s) for s in v)})
         seen: dict[str, tuple[str, str]] = {}
-        for stage in v:
+        for stage in edge:
             for spec in stage:
                 for col, how in spec.info().reduce.items():
                     if col in seen and seen[col][1] != how:
@@ -692,16 +836,44 @@ class Config(_Model):
                     seen.setdefault(col, (spec.name, how))
         return v
 
+    @property
+    def edge_stages(self) -> list[list[CriterionSpec]]:
+        """The edge stages of ``stages``, in order (each: criteria, then a contraction)."""
+        return [s for s in self.stages if isinstance(s, list)]
+
+    @property
+    def operations(self) -> list[OperationSpec]:
+        """The graph operations of ``stages``, in order (after the last edge stage)."""
+        return [s for s in self.stages if isinstance(s, OperationSpec)]
+
+    def step_names(self) -> list[Any]:
+        """The whole method: criterion names per edge stage, then the operations' names.
+
+        Examples
+        --------
+        >>> Config.preset("paper").step_names()
+        [['pixel_match'], ['chamfer_3d'], 'support', 'support_final']
+        """
+        return [[c.name for c in s] if isinstance(s, list) else s.name for s in self.stages]
+
     @classmethod
     def preset(cls, name: str, **kwargs: Any) -> Config:
         """A named configuration (see :data:`PRESETS`), with overrides.
 
-        ``"paper"`` is ``Config()``: the paper's thresholds. ``"rgbd"`` is
-        chosen by measurement for metric RGB-D input (``docs/results.md``): the
-        per-pair overlap fraction (``pair_hits``) >= 0.3 for 2D edges, the
-        official code's tau_3D = 5e-5 m^2, and masks dropped only when at least
-        half of them is background (background pixels are cleared from every
-        mask anyway). Mapping overrides merge into the preset's sections.
+        ``"rgbd"`` is ``Config()``, chosen by measurement for metric RGB-D input
+        (``docs/results.md``): the per-pair overlap fraction (``pair_hits``) >=
+        0.3 for 2D edges, the official code's tau_3D = 5e-5 m^2, masks dropped
+        only when at least half of them is background, then the minimum support
+        and the 3D split with its joins. ``"paper"`` holds the paper's
+        thresholds. Every preset is the keys it changes over ``Config()``;
+        mapping overrides merge into the preset's sections.
+
+        Examples
+        --------
+        >>> Config.preset("rgbd") == Config()
+        True
+        >>> Config.preset("paper").step_names()
+        [['pixel_match'], ['chamfer_3d'], 'support', 'support_final']
         """
         if name not in PRESETS:
             raise ValueError(f"unknown preset {name!r}; choose one of {', '.join(PRESETS)}")
@@ -716,7 +888,7 @@ class Config(_Model):
 
     @classmethod
     def minus(cls, **kwargs: Any) -> Config:
-        """GraphSeg-minus, the paper's ablation: the 2D stage only."""
+        """GraphSeg-minus, the paper's ablation: the 2D stage only (of ``Config(**kwargs)``)."""
         return cls(**kwargs).without_3d()
 
     @model_validator(mode="after")
@@ -734,31 +906,17 @@ class Config(_Model):
             want, contractor = self.without_3d().stages, self.contractor
         else:
             name = "view_consensus" if self.method == "maskclustering" else "bidirectional_overlap"
-            want = [[CriterionSpec.model_validate(name)] for _ in range(3 if self.method == "maskclustering" else 1)]
+            want = [*([CriterionSpec.model_validate(name)] for _ in range(3 if self.method == "maskclustering" else 1)), *self.operations]
             contractor = ContractorSpec.model_validate("star")
         if want != self.stages or contractor != self.contractor:
             self.__dict__.update(stages=want, contractor=contractor)  # the fields' own validators already ran on these
         return self
 
-    def for_method(self) -> Config:
-        """The configuration ``method`` runs: the config itself, since the validator resolves ``method``.
-
-        Kept for callers of earlier versions.
-
-        Examples
-        --------
-        >>> Config(method="sam3d").stage_names()
-        [['bidirectional_overlap']]
-        >>> Config(method="graphseg-minus").for_method().stage_names()
-        [['pixel_match']]
-        """
-        return self
-
     def without_3d(self) -> Config:
         """A copy without criteria tagged ``dimension: "3d"`` (stages left empty are dropped)."""
-        stages = [[c for c in s if c.info().dimension != "3d"] for s in self.stages]
+        stages = [[c for c in s if c.info().dimension != "3d"] for s in self.edge_stages]
         kept = [s for s in stages if s] or [[CriterionSpec.model_validate("pixel_match")]]
-        return self.model_copy(update={"stages": kept})
+        return self.model_copy(update={"stages": [*kept, *self.operations]})
 
     def for_lifter(self, lifter: str | None) -> Config:
         """The configuration a scene lifted by ``lifter`` runs with (see :class:`LiftedConfig`).
@@ -774,36 +932,43 @@ class Config(_Model):
         30.0
         >>> cfg.for_lifter("rgbd") is cfg, cfg.split.merge_ncut, cfg.for_lifter("sfm").split.merge_ncut
         (True, 0.022, None)
-        >>> cfg.trim.enabled, cfg.for_lifter("sfm").trim.enabled, Config.preset("rgbd", lifted={"trim": {"enabled": False}}).for_lifter("sfm").trim.enabled
-        (False, True, False)
-        >>> cfg.grow.enabled, cfg.for_lifter("sfm").grow.enabled, Config.preset("rgbd", lifted={"grow": {"enabled": False}}).for_lifter("sfm").grow.enabled
-        (False, True, False)
+        >>> cfg.for_lifter("sfm").step_names()[2:]      # estimated points: the border join, then rims grown and trimmed
+        ['support', 'split', 'merge', 'join_shared', 'mask_join', 'snap', 'support_final', 'grow', 'trim']
+        >>> "trim" in Config.preset("rgbd", lifted={"trim": {"enabled": False}}).for_lifter("sfm").step_names()
+        False
         """
         lf = self.lifted
         if lifter is None or lifter not in lf.lifters or not (lf.criteria or lf.objects or lf.split or lf.preset or lf.backend_options or lf.trim or lf.grow):
             return self
-        base: Config = self
-        if lf.preset is not None and self.method == "graphseg":
-            source = Config.preset(lf.preset)
-            base = self.model_copy(update={"stages": source.stages, "contractor": source.contractor})
+        steps: list[Any] = list(self.stages)
+        if lf.preset is not None and self.method == "graphseg":  # the preset's edge stages, this config's operations
+            steps = [*Config.preset(lf.preset).edge_stages, *self.operations]
         over = lf.criteria
-        stages = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in stage] for stage in base.stages]
+        steps = [[{c.name: {**c.options, **over[c.name]}} if c.name in over else c for c in s] if isinstance(s, list) else s for s in steps]
         objects_over = dict(lf.objects)
         if objects_over == _DEFAULT_LIFTED_OBJECTS:  # the built-in default yields to objects fields the user changed
             plain_objects = ObjectConfig()
             objects_over = {k: v for k, v in objects_over.items() if getattr(self.objects, k) == getattr(plain_objects, k)}
         objects = ObjectConfig.model_validate({**self.objects.model_dump(), **objects_over})
-        split_over = dict(lf.split)
+        split_over = {k: v for k, v in lf.split.items() if k != "enabled"}
         if split_over == _DEFAULT_LIFTED_SPLIT:  # the built-in default yields to split options the user changed
             plain = SplitConfig()
             split_over = {k: v for k, v in split_over.items() if getattr(self.split, k) == getattr(plain, k)}
         split = SplitConfig.model_validate({**self.split.model_dump(), **split_over})
-        trim = TrimConfig.model_validate({**self.trim.model_dump(), **lf.trim})  # lifted.trim wins (its default only turns the trim on)
-        grow = GrowConfig.model_validate({**self.grow.model_dump(), **lf.grow})  # lifted.grow wins (its default only turns the growing on)
+        trim = TrimConfig.model_validate({**self.trim.model_dump(), **{k: v for k, v in lf.trim.items() if k != "enabled"}})  # lifted.trim wins
+        grow = GrowConfig.model_validate({**self.grow.model_dump(), **{k: v for k, v in lf.grow.items() if k != "enabled"}})  # lifted.grow wins
+        switches = {k: bool(d["enabled"]) for k, d in (("split", lf.split), ("trim", lf.trim), ("grow", lf.grow)) if "enabled" in d}
+        steps = with_operations(steps, switches)
+        if any(_entry_name(e) == "split" for e in steps):  # a join the lifted split turns on runs with the split
+            wanted = {"merge": split.merge_ncut, "join_shared": split.join_shared, "mask_join": split.mask_join, "snap": split.snap_share}
+            for name, value in wanted.items():
+                if value is not None and not any(_entry_name(e) == name for e in steps):
+                    steps = _insert_operation(steps, name)
         options = {**self.backends.options, **{k: {**v, **self.backends.options.get(k, {})} for k, v in lf.backend_options.items()}}
-        return base.model_copy(
+        return self.model_copy(
             update={
-                "stages": [[CriterionSpec.model_validate(e) for e in stage] for stage in stages],
+                "stages": _parse_steps(steps),
+                "contractor": Config.preset(lf.preset).contractor if lf.preset is not None and self.method == "graphseg" else self.contractor,
                 "objects": objects,
                 "split": split,
                 "trim": trim,
@@ -813,12 +978,12 @@ class Config(_Model):
         )
 
     def stage_names(self) -> list[list[str]]:
-        """The criterion names of every stage."""
-        return [[c.name for c in s] for s in self.stages]
+        """The criterion names of every edge stage (:meth:`step_names` adds the graph operations)."""
+        return [[c.name for c in s] for s in self.edge_stages]
 
     def criteria(self) -> list[CriterionSpec]:
-        """Every criterion of every stage, in order."""
-        return [c for s in self.stages for c in s]
+        """Every criterion of every edge stage, in order."""
+        return [c for s in self.edge_stages for c in s]
 
     def criterion_options(self, name: str) -> dict[str, Any]:
         """The options of the first stage entry named ``name`` (KeyError if none)."""
@@ -860,8 +1025,8 @@ class Config(_Model):
     def load(cls, path: str | PathLike[str], *, base: Config | None = None) -> Config:
         r"""Read YAML or JSON written by :meth:`save`.
 
-        A partial file overrides ``base`` (default ``Config()``, the paper's
-        values): nested sections are merged key by key, lists are replaced.
+        A partial file overrides ``base`` (default ``Config()``, the ``rgbd``
+        method): nested sections are merged key by key, lists are replaced.
         YAML alias expansion is bounded (:func:`load_yaml_text`), and files
         over 1 MiB are refused.
 
@@ -985,6 +1150,11 @@ def _walk(root: type[BaseModel], loc: tuple[Any, ...]) -> tuple[list[str], type[
     cur: Any = root
     holder: type[BaseModel] | None = None
     for part in loc:
+        while typing.get_origin(cur) is Annotated:
+            cur = typing.get_args(cur)[0]
+        if _is_union(cur) and isinstance(part, str) and part in _STEP_TAGS:  # a step's tag: which kind of step
+            cur = _STEP_TAGS[part]
+            continue
         while _is_union(cur):  # Optional[X] -> X; a real union ends the path (its tags follow)
             members = [a for a in typing.get_args(cur) if a is not type(None)]
             if len(members) != 1:

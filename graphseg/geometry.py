@@ -1,7 +1,7 @@
 """Geometry shared by the method and the backends: plane fitting, the table plane, surface normals, view pairs.
 
-:func:`select_pairs` chooses the view pairs to match by camera pose (see
-:mod:`graphseg.method.pairs`, which documents the modes and re-exports it).
+:func:`select_pairs` chooses the view pairs to match by camera pose (its
+docstring documents the modes).
 
 Examples
 --------
@@ -274,7 +274,7 @@ def scene_scale(points: Sequence[np.ndarray | None], cam_to_world: Sequence[np.n
 def select_pairs(
     cam_to_world: Sequence[np.ndarray | None],
     *,
-    mode: str = "pose",
+    mode: str = "auto",
     max_rotation: float = 1.2,
     max_translation: float | None = None,
     translation_scale: float = 1.0,

@@ -335,6 +335,8 @@ def run_job(
     backends = backends_for_lifter(backends, cfg, scene.meta.get("lifter"), segmenter=segmenter, matcher=matcher)
     result = run(scene, cfg, segmenter=backends["segmenter"], matcher=backends["matcher"], progress=progress)
     timings["run"] = time.perf_counter() - t
+    info["steps"] = result.config.step_names()  # the method that ran: edge stages, then graph operations
+    info["refiners"] = dict(result.info.get("refiners") or {})  # pixels the pixel refiners moved (the objects graph explains the rest)
     why = result.info.get("no_objects")
     if why:  # run.json says which step lost every object (the same line is among the warnings)
         info["no_objects"] = {"step": why["step"], "reason": why["line"]}
@@ -346,7 +348,7 @@ def run_job(
         metrics["audit"] = edge_audit(result, scene)
     timings["evaluate"] = time.perf_counter() - t
     warnings = list(result.info.get("warnings", []))
-    from .sim.pybullet_scenes import fell_off_warning
+    from .scene import fell_off_warning
 
     fell = fell_off_warning(scene)
     if fell:

@@ -377,7 +377,7 @@ def _stage_tau(result: Result, stage: int, name: str) -> float:
         t = ((stages[stage].get("adders") or {}).get(name) or {}).get("tau")
         if isinstance(t, (int, float)):
             return float(t)
-    opts = result.config.criterion_options(name) if name in {s.name for st in result.config.stages for s in st} else {}
+    opts = result.config.criterion_options(name) if name in {s.name for st in result.config.edge_stages for s in st} else {}
     t = opts.get("tau")
     return float(t) if isinstance(t, (int, float)) else float("nan")
 
@@ -456,9 +456,9 @@ def ambiguity_targets(
             key = (int(min(ou[e], ov[e])), int(max(ou[e], ov[e])))
             offer(key, float(w[e]), str(kinds[e]), (s, int(u[e]), int(v[e])))
     # near misses of the 3D criterion between final objects
-    crit_names = {spec.name for st in result.config.stages for spec in st}
+    crit_names = {spec.name for st in result.config.edge_stages for spec in st}
     if "chamfer_3d" in crit_names and result.num_objects > 1:
-        stage = next(s for s, st in enumerate(result.config.stages) if any(spec.name == "chamfer_3d" for spec in st))
+        stage = next(s for s, st in enumerate(result.config.edge_stages) if any(spec.name == "chamfer_3d" for spec in st))
         tau3 = _stage_tau(result, stage, "chamfer_3d")
         ps = result.object_points
         if np.isfinite(tau3) and tau3 > 0:

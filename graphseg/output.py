@@ -692,8 +692,12 @@ def fill_output(
         "scene": info.get("scene", scene.name),
         "views": len(result.view_names),
         "objects": result.num_objects,
-        "stages": " -> ".join("+".join(s) for s in result.config.stage_names()),
+        "steps": " -> ".join(s if isinstance(s, str) else "+".join(s) for s in result.config.step_names()),
     }
+    refiners = result.info.get("refiners") or {}
+    if refiners.get("pixels"):  # the pixels the pixel refiners moved: the only ones the objects graph does not explain
+        per = ", ".join(f"{k} {v}" for k, v in refiners.items() if k not in ("pixels", "fraction"))
+        summary["pixel refiners"] = f"{refiners['pixels']} pixels moved ({100 * refiners.get('fraction', 0.0):.2f}%: {per})"
     if result.info.get("pipeline"):
         p = result.info["pipeline"]
         summary["backends"] = f"segmenter={p.get('segmenter')}, matcher={p.get('matcher')}, lifter={p.get('lifter')}"

@@ -24,7 +24,7 @@ from .backends.options import option_fields
 from .backends.registry import features as feature_registry
 from .backends.registry import lifters, matchers, segmenters
 from .config import Config
-from .method.pairs import scene_scale, select_pairs
+from .geometry import scene_scale, select_pairs
 from .method.segment import segment
 from .result import Result
 from .scene import Matches, Scene
@@ -421,7 +421,7 @@ def run(
     Result
         ``info["pipeline"]`` names the backends and holds per-step timings.
     """
-    cfg = (config or Config()).for_method()  # the stages config.method runs: evidence is computed for them
+    cfg = config or Config()  # the stages config.method runs (its validator put them there): evidence is computed for them
     t0 = time.perf_counter()
     times: dict[str, float] = {}
     scene.validate()

@@ -6,9 +6,9 @@ nearest-neighbour distance in m^2). Both are facts worth keeping, so both are
 named here, once:
 
 * :data:`TAU_3D_PAPER` (5e-4 m^2): the value the paper states, the default of
-  ``Chamfer3D.Options.tau`` and so of ``Config()`` (the ``paper`` preset);
+  ``Chamfer3D.Options.tau`` and so of the ``paper`` preset;
 * :data:`TAU_3D_OFFICIAL` (5e-5 m^2): the value the official code used, which
-  the measured presets (``rgbd``, ``robust``, ``multicut``) adopt.
+  the measured methods (``Config()`` = ``rgbd``, ``robust``, ``multicut``) adopt.
 
 This module imports nothing, so the configuration and the graph package can
 both read it without loading each other.

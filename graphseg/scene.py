@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["View", "Scene", "Matches", "SceneError", "backproject", "is_rigid"]
+__all__ = ["View", "Scene", "Matches", "SceneError", "backproject", "is_rigid", "fell_off_warning"]
 
 
 class SceneError(ValueError):
@@ -292,3 +292,18 @@ class Matches:
         idx = np.argpartition(-self.certainty, n - 1)[:n]
         idx = idx[np.argsort(-self.certainty[idx], kind="stable")]
         return Matches(self.xy_i[idx], self.xy_j[idx], self.certainty[idx])
+
+
+def fell_off_warning(scene: Scene) -> str | None:
+    """The one-line warning for a synthetic scene that lacks objects that fell off the table, or None.
+
+    >>> fell_off_warning(Scene([], meta={"fell_off": ["sphere"], "objects_requested": 3}))
+    '1 of 3 objects did not stay on the table and are not in the scene: sphere'
+    >>> fell_off_warning(Scene([])) is None
+    True
+    """
+    fell = list(scene.meta.get("fell_off") or [])
+    if not fell:
+        return None
+    total = int(scene.meta.get("objects_requested") or len(fell) + len(scene.objects))
+    return f"{len(fell)} of {total} objects did not stay on the table and are not in the scene: {', '.join(map(str, fell))}"

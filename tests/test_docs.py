@@ -40,6 +40,9 @@ def extras_installed(tmp_path, monkeypatch):
     yield site
     for name in ("mean_colour", "touching"):
         edge_adders.unregister(name)
+    from graphseg.graphs.registry import operations
+
+    operations.unregister("drop_thin")
     for mod in [m for m in sys.modules if m.startswith("graphseg_extras")]:
         del sys.modules[mod]
     monkeypatch.undo()
@@ -64,6 +67,9 @@ def test_plugins_tutorial_runs_and_its_criteria_work(extras_installed, tmp_path,
     # the 3D criterion adds edges in the second stage and does the same
     assert ns["touch"].info["stages"][1]["adders"]["touching"]["edges"] > 0
     assert ns["touch"].num_objects == truth
+    # the graph operation runs as a step of the list and is recorded in the objects graph
+    assert ns["thin"].num_objects == truth and "drop_thin" in ns["thin"].objects_graph.meta["steps"]
+    assert f"{truth} {ns['thin'].objects_graph.meta['steps']}" in out
     assert f"{ns['minus'].num_objects} -> 2" in out and "[['pixel_match']]" in out
     # the backend plugins and the contractor, by name through their entry points: the millimetre
     # lifter with label propagation gives exactly the built-in rgbd lifter's objects with union-find
@@ -100,6 +106,7 @@ KIND_REGISTRIES = {
     "graphseg.matchers": "graphseg.backends.registry:matchers",
     "graphseg.lifters": "graphseg.backends.registry:lifters",
     "graphseg.contractors": "graphseg.graphs.registry:contractors",
+    "graphseg.operations": "graphseg.graphs.registry:operations",
 }
 
 
@@ -125,7 +132,7 @@ def test_every_plugin_kind_is_one_module_its_test_and_an_entry_point(extras_inst
             assert (cls.__module__, cls.__name__, cls.name) == (module, attr, name)
             path = module.replace(".", "/") + ".py"
             assert path in modules and f"tests/test_{Path(path).name}" in tests, path
-    assert len(modules) == len(tests) == 6
+    assert len(modules) == len(tests) == 7
     # every test of the page runs and passes
     ran = []
     for path in sorted(tests):
@@ -133,7 +140,7 @@ def test_every_plugin_kind_is_one_module_its_test_and_an_entry_point(extras_inst
             if fname.startswith("test_") and callable(fn):
                 fn()
                 ran.append(fname)
-    assert len(ran) == 11, ran
+    assert len(ran) == 12, ran
 
 
 def test_the_backend_plugins_get_run_wide_settings_and_one_line_errors(extras_installed):

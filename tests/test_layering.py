@@ -20,7 +20,18 @@ The rules (``RULES``):
   shares with the background step);
 * the renderers (``report``, ``render_audit``) compute nothing: they import no
   graphseg module but each other;
-* nothing imports ``graphseg.cli``.
+* nothing imports ``graphseg.cli``;
+* ``graphseg.method`` imports only the config, the graphs, io, the arrays of
+  one run (``scene``, ``result``, ``geometry``) and the shared helpers: never
+  the pipeline, the job, the store, the backends (but ``backends.imaging``) or
+  the output folder;
+* ``graphseg.config`` imports only plain data (``presets``, ``published``,
+  ``background_config``), ``validation``, and the registries it validates
+  names against; ``presets`` import only ``published``;
+* ``graphseg.pipeline`` never imports what drives it (``job``, ``batch``,
+  ``cli``, ``store``), the output folder, the renderers or ``sim``;
+  ``graphseg.job`` never imports ``batch``, ``cli``, ``store`` or ``sim``;
+  ``graphseg.store`` never imports ``batch``, ``cli`` or the renderers.
 
 ``ALLOWED`` lists, with the fix each needs, the violations that live in files
 this change could not touch; :func:`test_allowed_edges_still_exist` fails once
@@ -61,6 +72,35 @@ _LOW_FORBIDDEN = (
 )
 _BACKENDS_MAY = ("graphseg.backends", "graphseg.scene", "graphseg.geometry", "graphseg.io", "graphseg.registry", "graphseg.quiet", "graphseg.validation", "graphseg.background_config")
 _RENDERERS = ("graphseg.report", "graphseg.render_audit")
+#: What the method (``graphseg.method``) may import: the arrays, graphs and config of one run, nothing that drives it.
+_METHOD_MAY = (
+    "graphseg.method",
+    "graphseg.config",
+    "graphseg.presets",
+    "graphseg.published",
+    "graphseg.background_config",
+    "graphseg.validation",
+    "graphseg.registry",
+    "graphseg.geometry",
+    "graphseg.graphs",
+    "graphseg.io",
+    "graphseg.result",
+    "graphseg.scene",
+    "graphseg.backends.imaging",  # colour conversion shared with the segmenters
+)
+#: What the configuration may import: plain data and the registries it validates names against.
+_CONFIG_MAY = (
+    "graphseg.config",
+    "graphseg.presets",
+    "graphseg.published",
+    "graphseg.background_config",
+    "graphseg.validation",
+    "graphseg.registry",
+    "graphseg.graphs.registry",
+    "graphseg.graphs.criterion",
+)
+#: What drives a run from outside: the pipeline and the job never import these.
+_DRIVERS = ("graphseg.job", "graphseg.batch", "graphseg.cli", "graphseg.store")
 
 #: (importer prefix, rule, predicate on the imported module: True = allowed).
 RULES: list[tuple[str, str, Callable[[str], bool]]] = [
@@ -70,6 +110,12 @@ RULES: list[tuple[str, str, Callable[[str], bool]]] = [
     ("graphseg.report", "renderers import no graphseg module but each other", lambda t: _under(t, _RENDERERS)),
     ("graphseg.render_audit", "renderers import no graphseg module but each other", lambda t: _under(t, _RENDERERS)),
     ("graphseg", "nothing imports graphseg.cli", lambda t: not _under(t, ("graphseg.cli",))),
+    ("graphseg.method", "method imports only " + ", ".join(_METHOD_MAY), lambda t: _under(t, _METHOD_MAY)),
+    ("graphseg.config", "config imports only " + ", ".join(_CONFIG_MAY), lambda t: _under(t, _CONFIG_MAY)),
+    ("graphseg.presets", "presets import only plain data", lambda t: _under(t, ("graphseg.published",))),
+    ("graphseg.pipeline", "pipeline never imports " + ", ".join(_DRIVERS) + ", the output folder, the renderers or sim", lambda t: not _under(t, (*_DRIVERS, "graphseg.output", *_RENDERERS, "graphseg.sim"))),
+    ("graphseg.job", "job never imports batch, cli, store or sim", lambda t: not _under(t, ("graphseg.batch", "graphseg.cli", "graphseg.store", "graphseg.sim"))),
+    ("graphseg.store", "store never imports batch, cli or the renderers", lambda t: not _under(t, ("graphseg.batch", "graphseg.cli", *_RENDERERS))),
 ]
 
 #: Violations in files this change may not edit: edge -> the fix it needs.

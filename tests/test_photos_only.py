@@ -50,7 +50,7 @@ def test_masks_on_the_table_name_the_background_step(boxes):
     res = run(boxes, masks=table)
     why = no_objects_reason(res, boxes)
     assert why["step"] == "background" and why["masks_background"] == 3
-    assert why["line"].startswith("0 objects: lost at the background step: all 3 masks were dropped: 3 lay at least 9% in the background class")
+    assert why["line"].startswith("0 objects: lost at the background step: all 3 masks were dropped: 3 lay at least 50% in the background class")
     assert res.info["warnings"] == [why["line"]]
 
 

@@ -11,7 +11,7 @@ from graphseg.config import DEFAULT_PRESET, PRESET_NAMES, PRESETS, Config
 def test_the_names_derive_from_the_presets_default_first():
     assert PRESET_NAMES[0] == DEFAULT_PRESET == "rgbd"
     assert sorted(PRESET_NAMES) == sorted(PRESETS) and len(set(PRESET_NAMES)) == len(PRESET_NAMES)
-    assert Config.preset("paper") == Config() != Config.preset(DEFAULT_PRESET)  # Config() is the paper's
+    assert Config.preset(DEFAULT_PRESET) == Config() != Config.preset("paper")  # Config() is the default preset
 
 
 def test_batch_starts_from_the_default_preset():

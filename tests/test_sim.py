@@ -159,7 +159,8 @@ def test_objects_rest_on_the_measured_table_top():
 
 
 def test_fell_off_warning_wording():
-    from graphseg.sim.pybullet_scenes import fell_off_warning, synthesize
+    from graphseg.scene import fell_off_warning
+    from graphseg.sim.pybullet_scenes import synthesize
 
     s = synthesize(seed=1, objects=3, views=1, size=(16, 16))
     assert s.meta["fell_off"] == [] and fell_off_warning(s) is None

@@ -13,8 +13,7 @@ the classical ones of their kind:
 
 What every kind shares stays here: ``options`` (the :class:`Backend` base),
 ``protocols``, ``registry``, ``weights``, ``imaging``, ``precomputed_folders``,
-``onnx_export``. The old flat module paths (``graphseg.backends.sfm``,
-``graphseg.backends.sam``, ...) are shims kept for one release.
+``onnx_export``.
 
 The classical backends are weight-free; model adapters load the user's files
 and import their packages only when built. The registries live in

@@ -167,7 +167,7 @@ def run_batch(
         The batch folder: new, or an earlier batch output (resumed).
     methods, config_files, preset
         The configurations swept (see :func:`graphseg.batch.tasks.configurations`;
-        ``preset`` None: :data:`graphseg.config.DEFAULT_PRESET`).
+        ``preset`` None: ``Config()``).
     num_views : list of int or None
         View counts (evenly spaced views; None = all views).
     backends : dict, optional

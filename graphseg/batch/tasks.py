@@ -220,16 +220,16 @@ def configurations(
     """The configurations of a sweep: one per method and one per config file.
 
     ``methods`` are applied to the ``preset`` (default
-    :data:`graphseg.config.DEFAULT_PRESET`): ``graphseg`` (as is) and
+    ``Config()``): ``graphseg`` (as is) and
     ``graphseg-minus`` (the 3D stage removed); other names are set as the
     config's ``method`` when the installed Config has that field (baselines).
     Config files are loaded as given; their label is the file stem.
     """
-    from ..config import DEFAULT_PRESET, Config
+    from ..config import Config
 
     out: list[Configuration] = []
     backends = {k: v for k, v in (backends or {}).items() if v is not None}  # unset = the config's own
-    base = Config.preset(DEFAULT_PRESET if preset is None else preset)
+    base = Config() if preset is None else Config.preset(preset)
     from typing import get_args
 
     known = get_args(Config.model_fields["method"].annotation) if "method" in Config.model_fields else ("graphseg", "graphseg-minus")

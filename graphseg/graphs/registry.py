@@ -1,5 +1,5 @@
-"""Registries of edge criteria and contractors (entry-point groups
-``graphseg.edge_adders`` and ``graphseg.contractors``).
+"""Registries of edge criteria, graph operations and contractors (entry-point groups
+``graphseg.edge_adders``, ``graphseg.operations`` and ``graphseg.contractors``).
 
 ``criteria`` is the same registry as ``edge_adders`` (its historical name).
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from ..registry import Registry
 
-__all__ = ["edge_adders", "criteria", "contractors"]
+__all__ = ["edge_adders", "criteria", "operations", "contractors"]
 
 edge_adders = Registry("edge criterion", group="graphseg.edge_adders")
 edge_adders.register("pixel_match", "graphseg.graphs.pixel_match:PixelMatch")
@@ -27,6 +27,22 @@ edge_adders.register("smooth_adjacency", "graphseg.graphs.adjacency:SmoothAdjace
 edge_adders.register("bidirectional_overlap", "graphseg.graphs.overlap:BidirectionalOverlap")
 
 criteria = edge_adders
+
+#: Graph operations, the steps of a method after its edge stages (:mod:`graphseg.method.operations`).
+operations = Registry("graph operation", group="graphseg.operations")
+for _name, _cls in (
+    ("support", "Support"),
+    ("split", "Split"),
+    ("merge", "Merge"),
+    ("join_shared", "JoinShared"),
+    ("mask_join", "MaskJoin"),
+    ("snap", "Snap"),
+    ("support_final", "SupportFinal"),
+    ("refine", "Refine"),
+    ("grow", "Grow"),
+    ("trim", "Trim"),
+):
+    operations.register(_name, f"graphseg.method.operations:{_cls}")
 
 contractors = Registry("contractor", group="graphseg.contractors")
 contractors.register("star", "graphseg.graphs.contract:StarContraction")

@@ -13,7 +13,7 @@ background, mask composition, outputs and metrics are identical to GraphSeg's:
   (:mod:`graphseg.graphs.overlap`), all view pairs at once (the original
   merges adjacent frames bottom-up).
 
-:func:`run_method` dispatches on ``config.method`` (:func:`method_config` gives the stages it runs).
+:func:`run_method` dispatches on ``config.method`` (the config's validator gives it the method's stages).
 
 Examples
 --------
@@ -34,7 +34,7 @@ from ..result import Result
 from ..scene import Matches, Scene
 from .segment import MasksLike, segment
 
-__all__ = ["maskclustering", "sam3d", "run_method", "method_config"]
+__all__ = ["maskclustering", "sam3d", "run_method"]
 
 
 def _with(config: Config | None, **update: Any) -> Config:
@@ -50,19 +50,6 @@ def maskclustering(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, i
 def sam3d(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches], config: Config | None = None) -> Result:
     """SAM3D-style bidirectional-overlap merging (one stage, components contraction)."""
     return segment(scene, masks, matches, _with(config, method="sam3d"))
-
-
-def method_config(config: Config | None = None) -> Config:
-    """The configuration ``config.method`` really runs (:meth:`Config.for_method`).
-
-    Examples
-    --------
-    >>> method_config(Config(method="sam3d")).stage_names()
-    [['bidirectional_overlap']]
-    >>> method_config(Config(method="graphseg-minus")).stage_names()
-    [['pixel_match']]
-    """
-    return (config or Config()).for_method()
 
 
 def run_method(scene: Scene, masks: MasksLike, matches: Mapping[tuple[int, int], Matches], config: Config | None = None, **kw: Any) -> Result:

@@ -14,7 +14,7 @@ Examples
 >>> import numpy as np
 >>> big = np.ones((3, 3), bool)
 >>> small = np.zeros((3, 3), bool); small[1, 1] = True
->>> lab, info = compose_masks([big, small])
+>>> lab, info = compose_masks([big, small], max_overlap=0.09, min_area=1)
 >>> lab.tolist()
 [[1, 1, 1], [1, 2, 1], [1, 1, 1]]
 """
@@ -33,8 +33,8 @@ def compose_masks(
     masks: Sequence[np.ndarray] | np.ndarray,
     *,
     background: np.ndarray | None = None,
-    max_overlap: float = 0.09,
-    min_area: int = 1,
+    max_overlap: float,
+    min_area: int,
 ) -> tuple[np.ndarray, dict[str, Any]]:
     """Resolve one view's masks into a label image.
 

@@ -44,7 +44,7 @@ from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .background import background_masks
 from .masks import compose_masks, paint_masks
-from .objects import StepContext, decide_objects, refine_pixels
+from .objects import StepContext, refine_pixels, run_operations
 from .refine import project_to_view
 
 __all__ = ["segment", "run_stages", "criterion_edges", "StageEdges", "finish_segmentation", "view_masks", "finite_points", "evidence_fields", "object_support", "confirming_views", "confirming_labels", "fragment_neighbours", "apply_min_support", "MasksLike"]
@@ -842,7 +842,7 @@ def run_stages(
     >>> from graphseg.testing.scenes import two_boxes_scene
     >>> from graphseg.method.masks import compose_masks
     >>> scene, masks, matches = two_boxes_scene()
-    >>> labels = [compose_masks(m)[0] for m in masks]
+    >>> labels = [compose_masks(m, max_overlap=0.09, min_area=1)[0] for m in masks]
     >>> g = CorrespondenceGraph.from_masks(labels, [v.points for v in scene.views])
     >>> cfg = Config.preset("rgbd")
     >>> shared = {"matches": matches, "points": [v.points for v in scene.views], "normal_cache": {}}
@@ -855,7 +855,7 @@ def run_stages(
     stage_graphs: list[CorrespondenceGraph] = []
     stage_info: list[dict[str, Any]] = []
     current = graph
-    for s, stage in enumerate(config.stages):
+    for s, stage in enumerate(config.edge_stages):
         t = time.perf_counter()
         evidence = Evidence.for_graph(current, **shared)
         with_edges = current.copy()
@@ -927,7 +927,7 @@ def segment(
     (O(total matches)) and the Chamfer stage (one sort of the gathered points
     plus k-d tree queries of candidate pairs).
     """
-    cfg = (config or Config()).for_method()  # Config(method="sam3d") runs the sam3d stages, not the default ones
+    cfg = config or Config()  # Config(method="sam3d") holds the sam3d stages (its validator put them there)
     matches = {} if matches is None else matches
     scene.validate()
     _check_inputs(scene, masks, matches)
@@ -1081,10 +1081,11 @@ def finish_segmentation(
     obj = canonical_cluster(mem["node"]) + 1 if mem["node"].size else mem["node"]
     painted = paint_masks(labels, mem["view"], mem["mask_id"], obj, dtype=np.int32)
     ctx = StepContext(views, points, labels, background, mem["view"], mem["mask_id"], cfg)
-    steps = decide_objects(ctx, painted, obj, first_step=f"stage{len(stage_graphs) - 1}" if stage_graphs else "masks")
+    ops = [spec.build() for spec in cfg.operations]
+    steps = run_operations(ctx, [op for op in ops if op.kind != "pixels"], painted, obj, first_step=f"stage{len(stage_graphs) - 1}" if stage_graphs else "masks")
     timings.update(steps.timings)
     objects_graph = steps.lineage.graph(meta={"scene": partition.meta.get("scene")})
-    out_labels, pixel_info = refine_pixels(ctx, steps.labels, timings)
+    out_labels, pixel_info = refine_pixels(ctx, [op for op in ops if op.kind == "pixels"], steps.labels, timings)
     _object_columns(stage_graphs, labels, mem, steps.obj, steps.changed)
     num_objects = steps.num_objects
     object_nodes = [lab.astype(np.int64) - 1 for lab in out_labels]

@@ -479,7 +479,7 @@ def split_objects(
     concave_angle: float = 10.0,
     concave_margin: float = 0.05,
     masks: Sequence[np.ndarray] | None = None,
-    own_fraction: float = 0.8,
+    own_fraction: float | None = None,
     own_cover: float = 0.5,
     num_objects: int | None = None,
     settle_band: int = 0,
@@ -512,7 +512,8 @@ def split_objects(
         pixels: a cut that the views' segmenter did not draw (a duck's neck)
         is undone, the part joining the neighbour it has the strongest links to.
     own_fraction, own_cover : float
-        See ``masks``.
+        See ``masks``. ``own_fraction`` None (the default, as
+        :class:`~graphseg.config.SplitConfig`): every cut stands.
     num_objects : int, optional
         The largest object id in use (default: the largest in ``labels``); new
         parts are numbered after it.
@@ -575,7 +576,7 @@ def split_objects(
             parts, moved = settle_parts(W, parts, band=settle_band)
             parts = [p for p in parts if p.size]
             settled += moved
-        if masks is not None and len(parts) > 1:
+        if masks is not None and own_fraction is not None and len(parts) > 1:
             parts = _owned_parts(parts, W, inverse, mask[sel], own_fraction, own_cover)
         parts.sort(key=lambda p: (-p.size, int(p.min())))
         entries.append({"object": o, "voxels": int(m), "parts": len(parts), "part_voxels": [int(p.size) for p in parts]})

@@ -56,7 +56,6 @@ from .boxes import look_at
 __all__ = [
     "synthesize",
     "render_view",
-    "fell_off_warning",
     "ASSETS",
     "Asset",
     "Shape",
@@ -599,7 +598,7 @@ def synthesize(
         Views named ``000``..; ``meta`` records the seed, the assets used,
         ``redropped``: the names of objects that had to be dropped again (once per
         drop), and ``fell_off``: the names of objects finally not on the table, left
-        out of the scene (normally empty; :func:`fell_off_warning` words it).
+        out of the scene (normally empty; :func:`graphseg.scene.fell_off_warning` words it).
         With a non-default option, also ``object_set``, ``table_texture`` and
         ``lighting`` (the light arguments used).
 
@@ -713,16 +712,3 @@ def synthesize(
     if light:
         meta["lighting"] = light
     return Scene(out, objects_named, name=f"synth-{seed}", meta=meta)
-
-
-def fell_off_warning(scene: Scene) -> str | None:
-    """The one-line warning for a synthetic scene that lacks objects that fell off the table, or None.
-
-    >>> fell_off_warning(synthesize(seed=0, objects=2, views=1, size=(32, 24))) is None
-    True
-    """
-    fell = list(scene.meta.get("fell_off") or [])
-    if not fell:
-        return None
-    total = int(scene.meta.get("objects_requested") or len(fell) + len(scene.objects))
-    return f"{len(fell)} of {total} objects did not stay on the table and are not in the scene: {', '.join(map(str, fell))}"

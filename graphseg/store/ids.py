@@ -37,7 +37,7 @@ import numpy as np
 from ..graphs import CorrespondenceGraph
 from .incremental import MASK_BITS
 
-__all__ = ["assign_ids", "deciding_edges", "describe_edge", "MAX_MEMBERS"]
+__all__ = ["assign_ids", "deciding_edges", "describe_edge", "operation_edges", "MAX_MEMBERS"]
 
 #: Masks listed per edge end in an explanation (the rest are counted).
 MAX_MEMBERS = 8
@@ -140,7 +140,7 @@ def describe_edge(graph: CorrespondenceGraph, e: int, view_names: Sequence[str])
     {'stage': 0, 'criterion': 'pixel_match', 'weight': 0.5, 'count': 7, 'u': [['a', 0]], 'v': [['b', 0]]}
     """
     out: dict[str, Any] = {}
-    for col in ("stage", "criterion", "weight", "count", "ratio", "distance", "sign"):
+    for col in ("stage", "criterion", "weight", "count", "ratio", "distance", "sign", "evidence", "evidence_name"):
         if col in graph.edge_attr:
             val = np.asarray(graph.edge_attr[col])[e]
             if isinstance(val, np.str_) or isinstance(val, str):
@@ -157,6 +157,34 @@ def describe_edge(graph: CorrespondenceGraph, e: int, view_names: Sequence[str])
         if sel.size > MAX_MEMBERS:
             out[f"{end}_more"] = int(sel.size - MAX_MEMBERS)
     return out
+
+
+def operation_edges(objects_graph: CorrespondenceGraph | None, stage: int) -> list[CorrespondenceGraph]:
+    """The joins of the graph operations (``Result.objects_graph``) as one more graph for :func:`deciding_edges`.
+
+    Its nodes are the objects graph's fragments, each standing for the base
+    mask it is part of (``source_mask``); its edges are the live edges a graph
+    operation added (``criterion`` not a contraction ``stageS``), with
+    ``stage`` set to ``stage``. Empty list without an objects graph.
+
+    Examples
+    --------
+    >>> g = CorrespondenceGraph.from_masks([np.array([[1, 2]])])
+    >>> g.node_attr["source_mask"] = np.array([0, 1])
+    >>> g = g.add_edges([[0], [1]], {"criterion": ["merge"], "cut_by": [""], "evidence": [0.03], "evidence_name": ["ncut"]})
+    >>> [h.edge_attr["stage"].tolist() for h in operation_edges(g, 2)]
+    [[2]]
+    """
+    if objects_graph is None or "source_mask" not in objects_graph.node_attr:
+        return []
+    crit = np.asarray(objects_graph.edge_attr.get("criterion", np.zeros(0, str))).astype(str)
+    live = np.asarray(objects_graph.edge_attr.get("cut_by", np.full(crit.size, ""))).astype(str) == ""
+    keep = np.flatnonzero(live & ~np.char.startswith(crit, "stage"))
+    n = objects_graph.num_nodes
+    members = {"view": objects_graph.node_attr["view"], "mask_id": objects_graph.node_attr["source_mask"], "node": np.arange(n)}
+    attrs = {k: np.asarray(objects_graph.edge_attr[k])[keep] for k in ("criterion", "evidence", "evidence_name") if k in objects_graph.edge_attr}
+    attrs["stage"] = np.full(keep.size, stage, np.int64)
+    return [CorrespondenceGraph(n, objects_graph.edge_index[:, keep], attrs, members=members, level="super")]
 
 
 def deciding_edges(

@@ -36,7 +36,7 @@ Examples
 >>> from graphseg.testing.scenes import two_boxes_scene
 >>> from graphseg.config import Config
 >>> scene, masks, matches = two_boxes_scene()
->>> cfg = Config()
+>>> cfg = Config.preset("paper")
 >>> views = [prepare_view(v, m, cfg, uid=i) for i, (v, m) in enumerate(zip(scene.views, masks))]
 >>> out = update(views, matches, cfg)
 >>> out.result.num_objects, [g.num_nodes for g in out.snapshot.graphs]
@@ -405,7 +405,7 @@ def update(
     matches : mapping ``(i, j) -> Matches``
         Matches of the selected pairs, ``i < j`` indices into ``views``.
     config : Config
-        As ``segment`` runs it (``for_method`` and ``for_lifter`` applied).
+        As ``segment`` runs it (``for_lifter`` applied).
     previous : Snapshot, optional, keyword-only
         The last update's graphs; None computes everything.
     changed_pairs : set of (int, int), keyword-only
@@ -460,7 +460,7 @@ def update(
             prev_keys = node_keys(prev, previous.view_uids) if prev is not None and previous is not None else None
             keys_of[s] = (prev, node_keys(current, uids), prev_keys)
         prev, keys, prev_keys = keys_of[s]
-        unique = [sp.name for sp in cfg.stages[s]].count(spec.name) == 1
+        unique = [sp.name for sp in cfg.edge_stages[s]].count(spec.name) == 1
         edge_parts, adder = _criterion_edges(spec, s, current, evidence, keys, prev if unique else None, prev_keys if unique else None, known, changed, uids)
         recomputed[f"stage{s}/{spec.name}"] = {"reused": adder["reused"], "computed": adder["computed"]}
         return edge_parts, adder

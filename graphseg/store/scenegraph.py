@@ -34,10 +34,10 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DEFAULT_PRESET, Config
+from ..config import Config
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
-from .ids import assign_ids, deciding_edges
+from .ids import assign_ids, deciding_edges, operation_edges
 from .incremental import MASK_BITS, Snapshot, ViewData, prepare_view, update
 from .layout import (
     StoreError,
@@ -259,7 +259,7 @@ class SceneGraph:
         path : path-like
             A store folder, or (``create``) a path that does not exist.
         config : Config, optional
-            For a new store (default ``Config.preset(DEFAULT_PRESET)``); for an existing
+            For a new store (default ``Config()``); for an existing
             one it must equal the store's configuration.
         create : bool, keyword-only
         inputs : list of path-like, keyword-only
@@ -283,7 +283,7 @@ class SceneGraph:
             state = read_state(p, pointer)
             sg = cls(p, pointer, state)
             if config is not None:
-                want = config.for_method().to_dict()
+                want = config.to_dict()
                 if want != state["config"]:
                     diff = sorted(k for k in set(want) | set(state["config"]) if want.get(k) != state["config"].get(k))
                     raise StoreError(f"was created with another configuration (differs in {', '.join(diff)}); open it without one or use a new store", where=where, field="config")
@@ -292,7 +292,7 @@ class SceneGraph:
             raise StoreError("exists and is not a graphseg store (choose a new folder)", where=where, field="store")
         if not create:
             raise StoreError("no such store", where=where, field="store")
-        cfg = (config or Config.preset(DEFAULT_PRESET)).for_method()
+        cfg = config or Config()
         root = create_store(p, cfg.to_dict(), inputs=inputs)
         pointer = read_pointer(root)
         return cls(root, pointer, read_state(root, pointer))
@@ -513,8 +513,8 @@ class SceneGraph:
             return self._add(views, segmenter=segmenter, matcher=matcher, lifter=lifter, features=features, masks=masks, select=select or {}, progress=progress)
 
     def _add(self, items: Any, *, segmenter: Any, matcher: Any, lifter: Any, features: Any, masks: Sequence[Any] | None, select: dict[str, Any], progress: bool) -> AddReport:
+        from ..geometry import scene_scale, select_pairs
         from ..job import backends_for_lifter, resolve_backends
-        from ..method.pairs import scene_scale, select_pairs
         from ..pipeline import lift, progress_bar
 
         t0 = time.perf_counter()
@@ -765,7 +765,8 @@ class SceneGraph:
                 members = [u for u, p in new_of.items() if p == ev["id"]]
                 group = {u: (old_of[u] if old_of.get(u, 0) > 0 else -u - 1) for u in members}
                 targets = [ev["id"], *[i for i in ev["ids"] if i != ev["id"]]]
-                edges = deciding_edges(res.graphs, up.snapshot.view_uids, group, targets, names_now)
+                graphs = [*res.graphs, *operation_edges(res.objects_graph, len(res.graphs))]  # the graph operations' joins too
+                edges = deciding_edges(graphs, up.snapshot.view_uids, group, targets, names_now)
             elif ev["event"] == "split" and previous is not None:
                 members = [u for u, p in old_of.items() if p == ev["id"]]
                 group = {u: (new_of[u] if new_of.get(u, 0) > 0 else -u - 1) for u in members}
@@ -775,7 +776,7 @@ class SceneGraph:
             else:
                 continue
             if edges is None:
-                ev["reason"] = "support: joined or parted by the minimum-support rules (objects.merge_seen / fragments), not by edges"
+                ev["reason"] = "support: joined or parted by the minimum-support rules (objects.merge_seen / fragments) or by pixels a graph operation moved, not by edges"
             else:
                 ev["edges"] = edges
                 ev["reason"] = "edges" if ev["event"] == "merge" else "edges of the last generation that joined the parts no longer hold"

@@ -76,10 +76,10 @@ def write_dist_info(
 def refresh_registries() -> None:
     """Re-scan the entry points of every graphseg registry (after ``sys.path`` changed)."""
     from graphseg.backends import registry as backends
-    from graphseg.graphs.registry import contractors, edge_adders
+    from graphseg.graphs.registry import contractors, edge_adders, operations
     from graphseg.io import scene_formats
 
-    for reg in (edge_adders, contractors, scene_formats, *(getattr(backends, n) for n in ("segmenters", "matchers", "lifters", "features"))):
+    for reg in (edge_adders, contractors, operations, scene_formats, *(getattr(backends, n) for n in ("segmenters", "matchers", "lifters", "features"))):
         reg.refresh()
 
 

@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from graphseg.config import Config
 from graphseg.graphs import (
     CorrespondenceGraph,
     coarsen,
@@ -190,7 +191,7 @@ def test_graphml_edges_lack_the_attributes_they_have_no_value_for(tmp_path):
     from graphseg.pipeline import run
     from graphseg.testing.scenes import TWO_BOXES, box_scene
 
-    result = run(box_scene(TWO_BOXES))
+    result = run(box_scene(TWO_BOXES), Config.preset("paper"))  # the paper's pixel_match: its edges have every column
     assert len(result.graphs) == 2
     g1 = result.graphs[1]
     assert g1.num_edges and (g1.edge_attr["count"] == -1).all() and np.isnan(g1.edge_attr["ratio"]).all()  # in memory: placeholders

@@ -175,9 +175,9 @@ def test_segment_grows_only_when_enabled():
     grown = [(b != a) for a, b in zip(off.labels, on.labels)]
     on_boxes = sum(int((g & (np.asarray(v.instances) > 0)).sum()) for g, v in zip(grown, scene.views))
     assert on_boxes >= 0.9 * on.info["grow"]["grown"]  # the grown pixels are the boxes' own
-    assert not Config.preset("rgbd").grow.enabled and not Config().grow.enabled
+    assert "grow" not in Config.preset("rgbd").step_names() and "grow" not in Config().step_names()
     # estimated points are grown (then trimmed) whatever the preset; measured depth only when asked
-    assert Config().for_lifter("sfm").grow.enabled and not Config().for_lifter("rgbd").grow.enabled
-    assert Config(grow={"enabled": True}).for_lifter("rgbd").grow.enabled
+    assert "grow" in Config().for_lifter("sfm").step_names() and "grow" not in Config().for_lifter("rgbd").step_names()
+    assert "grow" in Config(grow={"enabled": True}).for_lifter("rgbd").step_names()  # an old config's switch becomes the operation
     assert Config(grow={"band": 9}).for_lifter("sfm").grow.band == 9
-    assert not Config.preset("rgbd", lifted={"grow": {"enabled": False}}).for_lifter("sfm").grow.enabled
+    assert "grow" not in Config.preset("rgbd", lifted={"grow": {"enabled": False}}).for_lifter("sfm").step_names()

@@ -129,7 +129,7 @@ def test_join_objects_only_renames_objects(cells, min_shared):
     assert mapping[0] == 0 and (mapping <= np.arange(mapping.size)).all()  # a joined object takes the smaller id
     assert sorted(set(mapping[1:].tolist())) == list(range(1, info["num_objects"] + 1))  # no gap
     assert info["num_objects"] == 4 - len(info["joins"]) == mapping.max()
-    assert all(j["shared"] >= min_shared for j in info["joins"])
+    assert all(j["shared"] >= min_shared - 5e-7 for j in info["joins"])  # the record is rounded to 6 digits
 
 
 def test_segment_joins_stripes_of_one_box_for_estimated_points_only():
@@ -306,7 +306,7 @@ def test_join_by_masks_only_renames_objects(cells, mask_cells, min_cover):
 
 
 def test_rgbd_preset_joins_by_masks():
-    assert Config.preset("rgbd").split.mask_join == 0.5 and Config().split.mask_join is None
+    assert Config.preset("rgbd").split.mask_join == 0.5 and Config.preset("paper").split.mask_join is None
     assert Config.preset("robust").split.mask_join is None
     assert Config.preset("rgbd").for_lifter("sfm").split.mask_join == 0.5
 
@@ -320,7 +320,7 @@ TOUCHING = (  # a red and a blue box side by side, touching along x = 0 (as in t
 def test_segment_joins_a_box_the_split_cut_in_two_but_not_two_boxes_one_mask_spans(monkeypatch):
     import sys
 
-    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
+    seg_mod = sys.modules["graphseg.method.operations"]  # the graph operations after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects

@@ -10,7 +10,7 @@ def test_smaller_masks_painted_over_larger():
     mid[:2, :2] = True
     small = np.zeros((4, 4), bool)
     small[0, 0] = True
-    lab, info = compose_masks([small, big, mid])  # order of input does not matter
+    lab, info = compose_masks([small, big, mid], max_overlap=0.09, min_area=1)  # order of input does not matter
     assert lab.dtype == np.int32 and lab.shape == (4, 4)
     assert lab[0, 0] == 1 and lab[0, 1] == 3 and lab[3, 3] == 2
     assert info["kept"] == [0, 1, 2]
@@ -21,8 +21,8 @@ def test_ties_are_deterministic():
     a[0] = True
     b = np.zeros((2, 2), bool)
     b[:, 0] = True
-    lab1, _ = compose_masks([a, b])
-    lab2, _ = compose_masks([a, b])
+    lab1, _ = compose_masks([a, b], max_overlap=0.09, min_area=1)
+    lab2, _ = compose_masks([a, b], max_overlap=0.09, min_area=1)
     assert np.array_equal(lab1, lab2) and lab1[0, 0] == 2  # equal area: lower index painted first
 
 
@@ -34,27 +34,27 @@ def test_background_overlap_drop_and_clear():
     m2 = np.zeros((10, 10), bool)
     m2[:9, :5] = True
     m2[9, 0] = True  # 1/46 background -> kept, pixel cleared
-    lab, info = compose_masks([m1, m2], background=bg, max_overlap=0.09)
+    lab, info = compose_masks([m1, m2], background=bg, max_overlap=0.09, min_area=1)
     assert info["dropped_background"] == [0]
     assert lab[9, 0] == 0 and lab[0, 0] == 2
 
 
 def test_min_area_and_label_image_input():
     lab_in = np.array([[1, 1, 2], [0, 3, 3]])
-    lab, info = compose_masks(lab_in, min_area=2)
+    lab, info = compose_masks(lab_in, min_area=2, max_overlap=0.09)
     assert lab.tolist() == [[1, 1, 0], [0, 3, 3]] and info["dropped_small"] == [1]
     bg = np.array([[False, False, True], [False, False, False]])
-    lab, info = compose_masks(lab_in, background=bg, max_overlap=0.5)
+    lab, info = compose_masks(lab_in, background=bg, max_overlap=0.5, min_area=1)
     assert info["dropped_background"] == [1] and lab[0, 2] == 0
 
 
 def test_errors():
     with pytest.raises(ValueError, match="at least one mask"):
-        compose_masks([])
+        compose_masks([], max_overlap=0.09, min_area=1)
     with pytest.raises(ValueError, match="mask 1 is"):
-        compose_masks([np.zeros((2, 2), bool), np.zeros((3, 3), bool)])
+        compose_masks([np.zeros((2, 2), bool), np.zeros((3, 3), bool)], max_overlap=0.09, min_area=1)
     with pytest.raises(ValueError, match=">= 0"):
-        compose_masks(np.array([[-1, 0]]))
+        compose_masks(np.array([[-1, 0]]), max_overlap=0.09, min_area=1)
 
 
 def test_zero_overlap_threshold_drops_only_masks_touching_background():
@@ -64,20 +64,20 @@ def test_zero_overlap_threshold_drops_only_masks_touching_background():
     a[:2, :2] = True  # touches the background pixel
     b = np.zeros((4, 4), bool)
     b[2:, 2:] = True
-    lab, info = compose_masks([a, b], background=bg, max_overlap=0.0)
+    lab, info = compose_masks([a, b], background=bg, max_overlap=0.0, min_area=1)
     assert info["dropped_background"] == [0] and info["kept"] == [1]
-    lab, info = compose_masks(np.array([[1, 1], [2, 2]]), background=np.zeros((2, 2), bool), max_overlap=0.0)
+    lab, info = compose_masks(np.array([[1, 1], [2, 2]]), background=np.zeros((2, 2), bool), max_overlap=0.0, min_area=1)
     assert info["kept"] == [0, 1]
 
 
 def test_label_image_input_is_never_returned_or_mutated():
     lab = np.array([[1, 1, 0], [2, 2, 2]], np.int32)
     keep = lab.copy()
-    out, info = compose_masks(lab, background=np.zeros((2, 3), bool))
+    out, info = compose_masks(lab, background=np.zeros((2, 3), bool), max_overlap=0.09, min_area=1)
     assert out is not lab and not np.shares_memory(out, lab) and out.dtype == np.int32
     out[:] = 9
     assert np.array_equal(lab, keep) and info["kept"] == [0, 1]
-    out, _ = compose_masks(lab.astype(np.uint8))
+    out, _ = compose_masks(lab.astype(np.uint8), max_overlap=0.09, min_area=1)
     assert out.tolist() == keep.tolist() and out.dtype == np.int32
 
 

@@ -23,9 +23,8 @@ def _config(name):
 @pytest.fixture(scope="module")
 def synthetic():
     pytest.importorskip("pybullet")
-    from graphseg.sim.pybullet_scenes import synthesize
-
     from graphseg.pipeline import lift
+    from graphseg.sim.pybullet_scenes import synthesize
 
     scene = lift(synthesize(seed=100, objects=5, views=3, size=(320, 240)))  # bench_quality.py's first scene, smaller
     return scene, compute_masks(scene), compute_matches(scene)
@@ -89,3 +88,39 @@ def test_the_objects_graph_survives_save_and_load(synthetic, tmp_path):
         assert np.array_equal(np.asarray(back.edge_attr[k]), np.asarray(col), equal_nan=col.dtype.kind == "f"), k
     assert back.meta["steps"] == g.meta["steps"]
     assert all(np.array_equal(a, b) for a, b in zip(paint_objects(back), paint_objects(g)))
+
+
+def test_a_criterion_that_joins_everything_as_the_last_step_gives_one_object():
+    """Acceptance (issue 53): the user's ``stages`` replace the preset's and nothing after them decides
+    objects. Before, a third stage joining every pair gave 5 objects on a YCB-Video scene: the 3D split
+    and the joins ran after it. Placed before the preset's graph operations, the split cuts it again."""
+    from graphseg.graphs.criterion import Criterion
+    from graphseg.graphs.evidence import EdgeSet
+    from graphseg.graphs.registry import edge_adders
+    from graphseg.method.segment import segment
+    from graphseg.testing.scenes import TWO_BOXES, box_scene, exact_matches
+
+    class JoinAll(Criterion):
+        name = "join_all_test"
+
+        def __call__(self, graph, evidence):
+            u, v = np.triu_indices(graph.num_nodes, 1)
+            return EdgeSet(np.stack([u, v]), {})
+
+    edge_adders.register("join_all_test", JoinAll)
+    try:
+        scene = box_scene(TWO_BOXES, views=3, shape=(120, 160), arc_deg=50.0)
+        masks = [[v.instances == k for k in (1, 2)] for v in scene.views]
+        matches = exact_matches(scene)
+        preset = Config.preset("rgbd")
+        assert segment(scene, masks, matches, preset).num_objects == 2
+        last = Config.model_validate({**preset.to_dict(), "stages": [*preset.to_dict()["stages"][:2], ["join_all_test"]]})
+        assert last.step_names() == [["pixel_match"], ["chamfer_3d"], ["join_all_test"], "support", "support_final"]
+        res = segment(scene, masks, matches, last)
+        assert res.num_objects == 1 and _check(res, "join_all").node_attr["object"].max() == 1
+        before_ops = Config.model_validate({**preset.to_dict(), "stages": [*preset.to_dict()["stages"][:2], ["join_all_test"], *preset.to_dict()["stages"][2:]]})
+        cut = segment(scene, masks, matches, before_ops)
+        assert cut.num_objects == 2 and (cut.objects_graph.edge_attr["cut_by"] == "split").any()  # the graph says which step parted them
+    finally:
+        edge_adders._targets.pop("join_all_test", None)
+        edge_adders._loaded.pop("join_all_test", None)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from graphseg.method.pairs import pose_distance, scene_scale, select_pairs
+from graphseg.geometry import pose_distance, scene_scale, select_pairs
 from graphseg.sim.boxes import look_at
 
 
@@ -16,7 +16,7 @@ def test_translation_term_counts():
     near[:3, 3] = [0.1, 0, 0]
     far = np.eye(4)
     far[:3, 3] = [2.0, 0, 0]
-    pairs = select_pairs([a, near, far], max_translation=0.5)
+    pairs = select_pairs([a, near, far], mode="pose", max_translation=0.5)
     assert pairs == [(0, 1)]
     assert select_pairs([a, near, far], mode="all") == [(0, 1), (0, 2), (1, 2)]
 
@@ -27,15 +27,15 @@ def test_rotation_term_counts():
     c = look_at([0.2, -1, 0.5], [0, 0, 0])
     rot, _ = pose_distance(a, b)
     assert rot > 1.2
-    assert select_pairs([a, b, c], max_translation=10.0) == [(0, 2)]
+    assert select_pairs([a, b, c], mode="pose", max_translation=10.0) == [(0, 2)]
 
 
 def test_default_translation_is_relative_to_scene_scale():
     a = np.eye(4)
     b = np.eye(4)
     b[:3, 3] = [0.8, 0, 0]
-    assert select_pairs([a, b], scale=1.0) == [(0, 1)]
-    assert select_pairs([a, b], scale=0.5) == []
+    assert select_pairs([a, b], mode="pose", scale=1.0) == [(0, 1)]
+    assert select_pairs([a, b], mode="pose", scale=0.5) == []
     pts = np.zeros((2, 2, 3), np.float32)
     pts[..., 2] = 2.0
     assert scene_scale([pts], [np.eye(4)]) == pytest.approx(2.0)

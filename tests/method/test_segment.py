@@ -313,7 +313,7 @@ def test_unmerged_objects_that_other_views_see_are_kept():
     """With no 2D edges every mask is its own one-view object; the other views see each of them
     where it is, so none is a fragment (GraphSeg-minus with the paper's rule leaves many such)."""
     scene, masks, _ = two_boxes_scene(parts=1)
-    cfg = Config.minus()
+    cfg = Config.preset("paper").without_3d()
     r = segment(scene, masks, {}, cfg)
     assert r.num_objects == 6 and r.info["support"]["confirmed"] == 6 and r.info["support"]["dropped"] == 0
     strict = segment(scene, masks, {}, cfg.model_copy(update={"objects": cfg.objects.model_copy(update={"confirm_fraction": 1.0})}))

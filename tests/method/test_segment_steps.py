@@ -22,7 +22,7 @@ from graphseg.testing.scenes import two_boxes_scene
 
 def _inputs():
     scene, masks, matches = two_boxes_scene()
-    labels = [compose_masks(m)[0] for m in masks]
+    labels = [compose_masks(m, max_overlap=0.09, min_area=1)[0] for m in masks]
     points = [np.asarray(v.points) for v in scene.views]
     return scene, masks, matches, labels, points
 
@@ -36,7 +36,7 @@ def test_steps_compose_to_segment_without_background():
     g = CorrespondenceGraph.from_masks(labels, points)
     part, graphs, info = run_stages(g, cfg, shared, rng=np.random.default_rng(cfg.seed))
     res = finish_segmentation(scene.views, part, graphs, labels, points, [np.zeros(v.shape, bool) for v in scene.views], cfg, info={"stages": info})
-    assert len(graphs) == len(cfg.stages) == len(info)
+    assert len(graphs) == len(cfg.edge_stages) == len(info)
     assert res.num_objects == ref.num_objects
     for a, b in zip(res.labels, ref.labels):
         np.testing.assert_array_equal(a, b)

@@ -3,9 +3,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from graphseg.graphs.chamfer import PointSets, chamfer_edges
-from graphseg.method.sparse_chamfer import (
+from graphseg.graphs.chamfer import (
     SPACING_FACTOR,
+    PointSets,
+    chamfer_edges,
     point_spacing,
     spacing_aware_chamfer_edges,
 )

@@ -136,7 +136,7 @@ def test_segment_with_split_separates_touching_boxes_joined_by_straddling_masks(
     matches = exact_matches(scene)
     gt, pts = [v.instances for v in scene.views], [v.points for v in scene.views]
     rgbd = Config.preset("rgbd").to_dict()
-    assert rgbd["split"]["enabled"] and not Config().split.enabled  # on in the presets, off in the paper's method
+    assert "split" in Config().step_names() and "split" not in Config.preset("paper").step_names()  # in the default method, not in the paper's
     plain = segment(scene, masks, matches, Config.model_validate({**rgbd, "split": {"enabled": False}}))
     assert plain.num_objects == 1
     guarded = segment(scene, masks, matches, Config.model_validate({**rgbd, "split": {"enabled": True, "own_fraction": 0.8}}))
@@ -172,7 +172,7 @@ def test_split_config_is_validated_and_on_in_the_presets_only():
 
     from graphseg.config import validation_message
 
-    assert [Config.preset(p).split.enabled for p in ("rgbd", "robust", "multicut", "paper")] == [True, True, True, False]
+    assert ["split" in Config.preset(p).step_names() for p in ("rgbd", "robust", "multicut", "paper")] == [True, True, True, False]
     for bad, field in (({"max_ncut": -1}, "max_ncut"), ({"min_voxels": 0}, "min_voxels"), ({"own_fraction": 1.5}, "own_fraction"), ({"merge_ncut": -1}, "merge_ncut")):
         with pytest.raises(ValidationError) as err:
             Config.model_validate({"split": bad})
@@ -222,7 +222,7 @@ def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(mon
     """The second pass: the fine grid, parts of the same area (200 voxels of 6 mm = 288 of 5 mm), the view masks as guard."""
     import sys
 
-    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
+    seg_mod = sys.modules["graphseg.method.operations"]  # the graph operations after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     matches = exact_matches(scene)
@@ -230,7 +230,7 @@ def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(mon
     real = seg_mod.split_objects
     monkeypatch.setattr(seg_mod, "split_objects", lambda *a, **k: calls.append(k) or real(*a, **k))
     res = segment(scene, masks, matches, Config.preset("rgbd"))
-    assert [(k["voxel_size"], k["min_voxels"], k["masks"] is not None, k["own_fraction"]) for k in calls] == [(0.006, 200, False, 0.0), (0.005, 288, True, 0.8)]
+    assert [(k["voxel_size"], k["min_voxels"], k["masks"] is not None, k["own_fraction"]) for k in calls] == [(0.006, 200, False, None), (0.005, 288, True, 0.8)]
     assert calls[1]["num_objects"] == 2 and [e["parts"] for e in res.info["split"]["fine_objects"]] == [1, 1]
     calls.clear()
     one = segment(scene, masks, matches, Config.preset("rgbd", split={"fine_voxel_size": None}))
@@ -337,7 +337,7 @@ def test_segment_joins_the_halves_of_a_box_that_no_match_connects():
     scene = box_scene(box, views=3, shape=(240, 320), arc_deg=50.0)
     halves = [[(v.instances > 0) & (v.points[..., 0] < 0), (v.instances > 0) & (v.points[..., 0] >= 0)] for v in scene.views]
     base = Config.preset("rgbd").to_dict()
-    base["stages"] = base["stages"][:1]  # 2D edges only: each half matches itself in the other views, never the other half
+    base["stages"] = base["stages"][:1] + base["stages"][2:]  # 2D edges only (and rgbd's graph operations): each half matches itself in the other views, never the other half
     apart = segment(scene, halves, exact_matches(scene), Config.model_validate({**base, "split": {"enabled": True, "merge_ncut": None}}))
     assert apart.num_objects == 2
     res = segment(scene, halves, exact_matches(scene), Config.model_validate(base))
@@ -366,7 +366,7 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
     """A split that moves a few pixels of a pure mask into the other box: the snap gives them back."""
     import sys
 
-    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
+    seg_mod = sys.modules["graphseg.method.operations"]  # the graph operations after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects
@@ -387,7 +387,7 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
     box1, box1_off = (r.labels[0][scene.views[0].instances == 1] == 1 for r in (res, off))
     assert res.num_objects == 2 and box1_off.mean() < 0.95 and box1.mean() > 0.98  # back, but for pixels whose voxel only view 0 sees
     assert sorted(set(res.mask_object.tolist())) == [1, 2]
-    assert Config().split.snap_share is None and Config.preset("rgbd").split.snap_share == 0.85  # on in rgbd only
+    assert Config.preset("paper").split.snap_share is None and Config().split.snap_share == 0.85  # on in rgbd (the default) only
     assert Config.preset("robust").split.snap_share is None  # it lowered robust on YCB-Video 0002 at 10 views
     with pytest.raises(ValueError, match="snap_share"):
         Config.preset("rgbd", split={"snap_share": 0.5})
@@ -396,7 +396,7 @@ def test_segment_gives_masks_the_voxel_border_cut_back_to_their_object(monkeypat
 def test_a_snap_that_empties_an_object_keeps_masks_and_nodes_on_the_object_that_took_its_pixels(monkeypatch):
     import sys
 
-    seg_mod = sys.modules["graphseg.method.objects"]  # the steps after the last contraction
+    seg_mod = sys.modules["graphseg.method.operations"]  # the graph operations after the last contraction
     scene = box_scene(TOUCHING, views=3, shape=(240, 320), arc_deg=50.0)
     masks = [[v.instances == 1, v.instances == 2] for v in scene.views]  # pure masks, one per box
     real = seg_mod.split_objects

@@ -105,7 +105,7 @@ def test_segment_trims_only_when_enabled():
     assert on.info["trim"]["trimmed"] > 0 and on.info["trim"]["trimmed"] == sum(on.info["trim"]["per_view"]) and "trim" in on.info["timings"]
     for a, b in zip(off.labels, on.labels):  # trimming only unlabels pixels
         assert np.all((b == a) | (b == 0))
-    assert Config().for_lifter("sfm").trim.enabled and not Config().for_lifter("rgbd").trim.enabled
+    assert "trim" in Config().for_lifter("sfm").step_names() and "trim" not in Config().for_lifter("rgbd").step_names()
     # the trim section's other fields reach estimated points; lifted.trim turns it off
     assert Config(trim={"window": 9}).for_lifter("sfm").trim.window == 9
-    assert not Config(lifted={"trim": {"enabled": False}}).for_lifter("sfm").trim.enabled
+    assert "trim" not in Config(lifted={"trim": {"enabled": False}}).for_lifter("sfm").step_names()

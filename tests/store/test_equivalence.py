@@ -25,7 +25,7 @@ def _batch(sg, scene, config):
     with per_view_batch(config.seed) as segment:
         from graphseg.scene import Scene
 
-        return segment(Scene(views, name="batch"), masks, batch_matches(names, sg.matches()), config.for_method())
+        return segment(Scene(views, name="batch"), masks, batch_matches(names, sg.matches()), config)
 
 
 def _grow(path, scene, lookup, order, chunks, config):
@@ -74,7 +74,7 @@ def test_a_whole_set_rule_is_recomputed_and_still_equals_the_batch(boxes, tmp_pa
     # the paper's 2D rule keeps the 78th percentile of all ratios: it depends on every view,
     # so the store runs it on the whole graph at every add
     scene, lookup = boxes
-    cfg = Config(contractor="union_find")
+    cfg = Config.preset("paper", contractor="union_find")
     sg, reports = _grow(tmp_path / "s", scene, lookup, [2, 0, 4, 1, 3], [1, 1, 1, 1, 1], cfg)
     assert reports[-1].recomputed["stage0/pixel_match"]["reused"] == 0
     assert partition(sg.result()) == partition(_batch(sg, scene, cfg))
@@ -112,7 +112,7 @@ def test_ycbv_dev_frames_any_order_gives_the_batch_partition(ycbv_root, tmp_path
 
 def test_pairs_the_rule_drops_at_nine_views_lose_their_edges(tmp_path):
     # pairs.mode auto: every pair up to 8 views, close poses only from 9 on
-    from graphseg.method.pairs import scene_scale, select_pairs
+    from graphseg.geometry import scene_scale, select_pairs
     from graphseg.testing.scenes import oracle_part_masks
 
     scene = box_scene(random_boxes(5, 3), views=10, shape=(40, 54), arc_deg=324, rng=2)

@@ -259,7 +259,7 @@ class DUSt3RLifter(ModelBackend):
         patch_size: int = Field(16, ge=1)
         square_ok: bool = Field(False, description="keep square images square (DUSt3R's default crops them to 4:3)")
         names: dict[str, str] = Field(default_factory=dict, description="role -> ONNX tensor name overrides (roles: ROLES)")
-        pair_mode: Literal["all", "pose"] = Field("all", description="'pose': only pairs with close known poses (graphseg.method.pairs)")
+        pair_mode: Literal["all", "pose"] = Field("all", description="'pose': only pairs with close known poses (graphseg.geometry.select_pairs)")
         iterations: int = Field(10, ge=0, description="refinement rounds of the global alignment")
         min_conf: float = Field(0.0, ge=0, description="pixels below this confidence are ignored and left invalid (DUSt3R's viewer uses 3)")
         scale: Literal["auto", "nominal", "none"] = "auto"
