@@ -367,6 +367,25 @@ def run_job(
     return JobResult(result, scene, metrics, path_out, timings, warnings)
 
 
+def _run_points(sc: Scene, out: Path, where: str) -> Scene:
+    """The scene with the point maps the run used: its stored estimates, or the scene's measured depth; never a new estimate."""
+    from .pipeline import lift
+
+    if (out / "points").is_dir():
+        from .io.precomputed import apply_point_maps
+
+        return apply_point_maps(sc, out / "points")
+    if sc.has_points:
+        return sc
+    if sc.has_depth:
+        return lift(sc, "rgbd")  # measured depth: the same points by geometry alone
+    raise SceneError(
+        "the scene has no depth and the output stores no estimated points (written by an older graphseg): run it again to evaluate it",
+        where=where,
+        field="points",
+    )
+
+
 def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLike[str] | None = None, *, audit: bool = False) -> dict[str, Any]:
     """Metrics of an output folder against ground truth.
 
@@ -388,7 +407,6 @@ def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLik
     """
     from .io import load_scene
     from .output import read_output
-    from .pipeline import lift
 
     result, info = read_output(out)
     if scene is None:
@@ -423,7 +441,7 @@ def evaluate_output(out: str | os.PathLike[str], scene: Scene | str | os.PathLik
             raise SceneError(f"view {v.name!r} is {list(v.shape)} but the result's labels are {list(lab.shape)}", where=where, field="views")
     if not sc.has_instances:
         raise SceneError("the scene has no ground truth", where=where, field="instances")
-    sc = lift(sc, None, result.config)
+    sc = _run_points(sc, Path(out), where)
     metrics = evaluate_scene(result, sc)
     assert metrics is not None
     if audit:

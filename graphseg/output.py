@@ -12,6 +12,8 @@
       graphs/stageS.graphml  one GraphML per stage S = 0, 1, ... (the graph with that stage's edges)
       graphs/objects.graphml the objects graph: mask fragments, the steps after the last contraction
                              as edges and cuts, each node's object (Result.objects_graph)
+      points/VIEW.npz        the point maps the run estimated (a lifter of lifted.lifters: sfm,
+                             dust3r, da3), so that `graphseg eval` scores the run's own points
       result.npz             the native result file (Result.load)
       config.yaml            the configuration used
       run.json               scene path, views (and their file names), backends, timings
@@ -676,6 +678,10 @@ def fill_output(
     if result.objects_graph is not None:
         write_graphml(result.objects_graph, tmp / "graphs" / "objects.graphml")
     result.save(tmp / RESULT_FILE)
+    if scene.meta.get("lifter") in result.config.lifted.lifters and all(v.points is not None for v in scene.views):
+        from .io.precomputed import write_point_maps
+
+        write_point_maps(tmp / "points", scene)  # estimated points: eval reads them instead of lifting again
     result.config.save(tmp / "config.yaml")
     info = dict(run_info or {})
     info.setdefault("views", result.view_names)

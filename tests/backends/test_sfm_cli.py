@@ -54,7 +54,7 @@ def test_cli_rgb_only_run_and_failure(arc_scene, photos_run, tmp_path, capsys):
     assert not (tmp_path / "out2").exists()
 
 
-def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path, capsys):
+def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path, capsys, monkeypatch):
     """Issue 20: a view structure from motion cannot register (a blank wall) is left out with one
     warning line naming it, and run.json says so; before, the whole run failed with exit 2."""
     import json
@@ -75,6 +75,24 @@ def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path,
     assert run["dropped_views"] == ["blank"] and run["views"] == [v.name for v in arc_scene.views]
     assert f"in {len(arc_scene)} views" in cap.out
     assert main(["eval", str(tmp_path / "out"), "--quiet"]) == 0  # the evaluation follows the registered views
+    # issue 54: eval reads the points the run estimated (points/) and never lifts again, so it gives the
+    # run's own metrics exactly (before, it ran structure from motion again, and other views could pass)
+    from graphseg.backends.lifters import sfm
+
+    assert sorted(p.stem for p in (tmp_path / "out" / "points").glob("*.npz")) == sorted(v.name for v in arc_scene.views)
+
+    def no_lift(*a, **k):
+        raise AssertionError("eval ran the lifter")
+
+    monkeypatch.setattr(sfm.SfmLifter, "__call__", no_lift)
+    assert main(["eval", str(tmp_path / "out"), "--quiet", "--json", str(tmp_path / "m.json")]) == 0
+    again = json.loads((tmp_path / "m.json").read_text())
+    assert again["mean"] == json.loads((tmp_path / "out" / "metrics.json").read_text())["mean"]
+    (tmp_path / "out" / "points").rename(tmp_path / "points_gone")  # an output written before points/ existed
+    capsys.readouterr()
+    assert main(["eval", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "stores no estimated points" in err[0]
     from graphseg.result import Result
 
     recorded = Result.load(tmp_path / "out" / "result.npz").config
