@@ -44,8 +44,6 @@ __all__ = [
     "run_job",
     "evaluate_output",
     "evaluate_scene",
-    "resolve_backends",
-    "backends_for_lifter",
     "estimate_peak_memory",
     "available_memory",
     "check_memory",
@@ -84,86 +82,6 @@ class JobResult:
     out: Path | None
     timings: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
-
-
-def _options_error(kind: str, name: str, err: Exception) -> SceneError:
-    text = str(err).splitlines()[0] if str(err) else type(err).__name__
-    return SceneError(f"{kind} {name!r} rejects its options ({text})", where="config", field=f"backends.options.{name}")
-
-
-def resolve_backends(
-    config: Config,
-    *,
-    segmenter: Any = None,
-    matcher: Any = None,
-    lifter: Any = None,
-    need_lifter: bool = True,
-) -> dict[str, Any]:
-    """Instances of the segmenter, matcher and (if ``need_lifter``) lifter, before any work.
-
-    Names default to ``config.backends``; options come from
-    ``config.backends.options[name]``.
-
-    Raises
-    ------
-    PluginNotFoundError
-        For an unknown name (the message lists the installed choices).
-    MissingDependencyError
-        When a backend's package is not installed (the message names the extra).
-    SceneError
-        When a backend rejects its options: its ``Options`` name the key
-        (field ``backends.options.NAME.KEY``, the valid keys and the closest
-        one); a backend class without ``Options`` is reported with field
-        ``backends.options.NAME``.
-    """
-    from .pipeline import backend_registry, resolve_backend
-
-    out: dict[str, Any] = {}
-    plan: list[tuple[str, Any]] = [
-        ("segmenter", segmenter or config.backends.segmenter),
-        ("matcher", matcher or config.backends.matcher),
-    ]
-    if need_lifter or lifter is not None:
-        plan.append(("lifter", lifter or config.backends.lifter))
-    for kind, spec in plan:
-        if isinstance(spec, str):
-            backend_registry(kind).get(spec)  # PluginNotFoundError / MissingDependencyError first
-        try:
-            out[kind] = resolve_backend(kind, spec, config)
-        except (TypeError, ValueError) as err:
-            if isinstance(err, SceneError):
-                raise
-            raise _options_error(kind, spec if isinstance(spec, str) else type(spec).__name__, err) from err
-    out.setdefault("lifter", None)
-    return out
-
-
-def backends_for_lifter(backends: dict[str, Any], config: Config, lifter: str | None, *, segmenter: Any = None, matcher: Any = None) -> dict[str, Any]:
-    """``backends`` with the segmenter and matcher rebuilt for points ``lifter`` estimated.
-
-    :attr:`LiftedConfig.backend_options <graphseg.config.LiftedConfig>` applies to
-    backends chosen by name (``segmenter`` / ``matcher`` None or a string); an
-    instance the caller built is kept as it is. Returns ``backends`` itself when
-    nothing changes; a backend whose options do not change is not rebuilt.
-
-    Examples
-    --------
-    >>> cfg = Config.preset("rgbd")
-    >>> b = resolve_backends(cfg, need_lifter=False)
-    >>> backends_for_lifter(b, cfg, "sfm")["matcher"].options.max_color_distance, b["matcher"].options.max_color_distance
-    (30.0, None)
-    >>> backends_for_lifter(b, cfg, "rgbd")["segmenter"] is b["segmenter"]
-    True
-    """
-    from .pipeline import resolve_backend
-
-    cfg_l = config.for_lifter(lifter)
-    out = dict(backends)
-    for kind, given in (("segmenter", segmenter), ("matcher", matcher)):
-        name = given or getattr(config.backends, kind)
-        if isinstance(name, str) and cfg_l.backends.options.get(name) != config.backends.options.get(name):  # only what changes is rebuilt
-            out[kind] = resolve_backend(kind, name, cfg_l)
-    return out
 
 
 def estimate_peak_memory(num_views: int, height: int, width: int) -> int:
@@ -288,7 +206,7 @@ def run_job(
     """
     from .io import detect_format, load_scene
     from .output import backup_message, check_target, write_output
-    from .pipeline import lift, run
+    from .pipeline import backend_name, execute, plan_run, resolve_backends
 
     cfg = config or Config()
     t0 = time.perf_counter()
@@ -318,22 +236,20 @@ def run_job(
             scene = scene.select(select_indices(len(scene), views=views, step=step, num_views=num_views, names=[v.name for v in scene.views], where=scene.name))
         info.setdefault("scene", scene.meta.get("source", scene.name))
         info.setdefault("format", scene.meta.get("format", "memory"))
-    scene.validate()
     info.setdefault("views", [v.name for v in scene.views])
     timings["read"] = time.perf_counter() - t
-    check_memory(scene, str(info.get("scene")))
     t = time.perf_counter()
-    lifter_used = backends["lifter"] if (lifter is not None or not scene.has_points) else None
-    if lifter is None and not scene.has_points and not scene.has_depth and cfg.backends.lifter == "rgbd":
-        lifter_used = None  # RGB-only and no lifter chosen: lift() picks structure from motion ("sfm")
-    scene = lift(scene, lifter_used, cfg)  # lifted once: run() reuses it and the metrics need its points
+    # validated, lifted and configured once (the backends were resolved above, before any image was read)
+    where = str(info.get("scene"))
+    plan = plan_run(scene, cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, backends=backends, check=lambda sc: check_memory(sc, where))
+    scene = plan.scene  # the metrics need its points
     if scene.meta.get("dropped_views"):  # the lifter left views out (not registered, or wrongly posed): run.json says which
         info["views"] = [v.name for v in scene.views]
         info["dropped_views"] = list(scene.meta["dropped_views"])
     timings["lift"] = time.perf_counter() - t
     t = time.perf_counter()
-    backends = backends_for_lifter(backends, cfg, scene.meta.get("lifter"), segmenter=segmenter, matcher=matcher)
-    result = run(scene, cfg, segmenter=backends["segmenter"], matcher=backends["matcher"], progress=progress)
+    names = {"segmenter": backend_name(segmenter, cfg.backends.segmenter), "matcher": backend_name(matcher, cfg.backends.matcher)}
+    result = execute(plan, progress=progress, names=names)
     timings["run"] = time.perf_counter() - t
     info["steps"] = result.config.step_names()  # the method that ran: edge stages, then graph operations
     info["refiners"] = dict(result.info.get("refiners") or {})  # pixels the pixel refiners moved (the objects graph explains the rest)

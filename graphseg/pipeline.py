@@ -15,6 +15,7 @@ Examples
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
 
@@ -27,9 +28,9 @@ from .config import Config
 from .geometry import scene_scale, select_pairs
 from .method.segment import segment
 from .result import Result
-from .scene import Matches, Scene
+from .scene import Matches, Scene, SceneError
 
-__all__ = ["run", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry", "progress_bar", "no_objects_reason", "NO_OBJECT_STEPS"]
+__all__ = ["run", "plan_run", "backend_name", "execute", "RunPlan", "resolve_backends", "backends_for_lifter", "lift", "compute_masks", "compute_matches", "prepare", "resolve_backend", "backend_registry", "progress_bar", "no_objects_reason", "NO_OBJECT_STEPS"]
 
 #: The backend kinds and their registries (entry-point groups ``graphseg.segmenters``, ...).
 BACKEND_REGISTRIES: dict[str, Any] = {"segmenter": segmenters, "matcher": matchers, "lifter": lifters, "features": feature_registry}
@@ -99,11 +100,87 @@ def _resolve(registry: Any, spec: Any, cfg: Config, extra: dict[str, Any] | None
     return registry.resolve(spec)
 
 
-def _name(spec: Any, default: str) -> str:
+def backend_name(spec: Any, default: str) -> str:
     """The registry name of a backend given as a name, class or instance (``default`` for None)."""
     if spec is None:
         return default
     return spec if isinstance(spec, str) else str(getattr(spec, "name", None) or default)
+
+
+def _options_error(kind: str, name: str, err: Exception) -> SceneError:
+    text = str(err).splitlines()[0] if str(err) else type(err).__name__
+    return SceneError(f"{kind} {name!r} rejects its options ({text})", where="config", field=f"backends.options.{name}")
+
+
+def resolve_backends(
+    config: Config,
+    *,
+    segmenter: Any = None,
+    matcher: Any = None,
+    lifter: Any = None,
+    need_lifter: bool = True,
+) -> dict[str, Any]:
+    """Instances of the segmenter, matcher and (if ``need_lifter``) lifter, before any work.
+
+    Names default to ``config.backends``; options come from
+    ``config.backends.options[name]``.
+
+    Raises
+    ------
+    PluginNotFoundError
+        For an unknown name (the message lists the installed choices).
+    MissingDependencyError
+        When a backend's package is not installed (the message names the extra).
+    SceneError
+        When a backend rejects its options: its ``Options`` name the key
+        (field ``backends.options.NAME.KEY``, the valid keys and the closest
+        one); a backend class without ``Options`` is reported with field
+        ``backends.options.NAME``.
+    """
+    out: dict[str, Any] = {}
+    plan: list[tuple[str, Any]] = [
+        ("segmenter", segmenter or config.backends.segmenter),
+        ("matcher", matcher or config.backends.matcher),
+    ]
+    if need_lifter or lifter is not None:
+        plan.append(("lifter", lifter or config.backends.lifter))
+    for kind, spec in plan:
+        if isinstance(spec, str):
+            backend_registry(kind).get(spec)  # PluginNotFoundError / MissingDependencyError first
+        try:
+            out[kind] = resolve_backend(kind, spec, config)
+        except (TypeError, ValueError) as err:
+            if isinstance(err, SceneError):
+                raise
+            raise _options_error(kind, spec if isinstance(spec, str) else type(spec).__name__, err) from err
+    out.setdefault("lifter", None)
+    return out
+
+
+def backends_for_lifter(backends: dict[str, Any], config: Config, lifter: str | None, *, segmenter: Any = None, matcher: Any = None, effective: Config | None = None) -> dict[str, Any]:
+    """``backends`` with the segmenter and matcher rebuilt for points ``lifter`` estimated.
+
+    :attr:`LiftedConfig.backend_options <graphseg.config.LiftedConfig>` applies to
+    backends chosen by name (``segmenter`` / ``matcher`` None or a string); an
+    instance the caller built is kept as it is. Returns ``backends`` itself when
+    nothing changes; a backend whose options do not change is not rebuilt.
+
+    Examples
+    --------
+    >>> cfg = Config.preset("rgbd")
+    >>> b = resolve_backends(cfg, need_lifter=False)
+    >>> backends_for_lifter(b, cfg, "sfm")["matcher"].options.max_color_distance, b["matcher"].options.max_color_distance
+    (30.0, None)
+    >>> backends_for_lifter(b, cfg, "rgbd")["segmenter"] is b["segmenter"]
+    True
+    """
+    cfg_l = effective if effective is not None else config.for_lifter(lifter)  # the run's effective config, when the caller built it
+    out = dict(backends)
+    for kind, given in (("segmenter", segmenter), ("matcher", matcher)):
+        name = given or getattr(config.backends, kind)
+        if isinstance(name, str) and cfg_l.backends.options.get(name) != config.backends.options.get(name):  # only what changes is rebuilt
+            out[kind] = resolve_backend(kind, name, cfg_l)
+    return out
 
 
 def progress_bar(iterable: Any, desc: str, enabled: bool, total: int | None = None) -> Any:
@@ -154,7 +231,7 @@ def lift(scene: Scene, lifter: Any = None, config: Config | None = None) -> Scen
     if lifter is None and default == "rgbd" and not scene.has_depth:
         default = "sfm"  # RGB-only: structure from motion + stereo (graphseg.backends.lifters.sfm)
     lifted = resolve_backend("lifter", lifter or default, cfg)(scene)
-    lifted.meta["lifter"] = _name(lifter, default)
+    lifted.meta["lifter"] = backend_name(lifter, default)
     return lifted
 
 
@@ -340,6 +417,82 @@ def _given_matches(scene: Scene, matches: Any) -> dict[tuple[int, int], Matches]
     return dict(matches)
 
 
+@dataclass
+class RunPlan:
+    """A run's inputs after the one pass that checks and prepares them (:func:`plan_run`).
+
+    ``scene`` is validated and lifted (``scene.meta["lifter"]`` names the
+    lifter), ``config`` is the effective configuration
+    (:meth:`Config.for_lifter` applied) and ``backends`` the segmenter and
+    matcher instances built with its options.
+    """
+
+    scene: Scene
+    config: Config
+    backends: dict[str, Any]
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def plan_run(
+    scene: Scene,
+    config: Config | None = None,
+    *,
+    segmenter: Any = None,
+    matcher: Any = None,
+    lifter: Any = None,
+    points: Any = None,
+    backends: dict[str, Any] | None = None,
+    check: Any = None,
+) -> RunPlan:
+    """Validate the scene, resolve the backends, lift, and build the effective config: once each, in that order.
+
+    ``backends`` (from :func:`resolve_backends`) are used as given: a caller
+    that resolved them before reading the scene does not resolve them twice.
+    ``points`` (a point-map folder) replaces the lifter. An RGB-only scene
+    without a named lifter is lifted by structure from motion (:func:`lift`).
+    ``check(scene)`` runs on the validated scene before it is lifted (the
+    job's memory check).
+    """
+    cfg = config or Config()
+    scene.validate()
+    if check is not None:
+        check(scene)
+    if backends is None:
+        backends = resolve_backends(cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, need_lifter=lifter is not None or not scene.has_points)
+    t = time.perf_counter()
+    if points is not None:
+        from .backends.lifters.precomputed import PrecomputedLifter
+
+        scene = lift(scene, PrecomputedLifter(folder=points), cfg)
+        scene.meta["lifter"] = "precomputed"
+    else:
+        use = backends.get("lifter") if (lifter is not None or not scene.has_points) else None
+        if lifter is None and not scene.has_points and not scene.has_depth and cfg.backends.lifter == "rgbd":
+            use = None  # RGB-only and no lifter chosen: lift() picks structure from motion ("sfm")
+        scene = lift(scene, use, cfg)
+    timings = {"lift": time.perf_counter() - t}
+    effective = cfg.for_lifter(scene.meta.get("lifter"))  # options for estimated (not measured) points
+    backends = backends_for_lifter(backends, cfg, scene.meta.get("lifter"), segmenter=segmenter, matcher=matcher, effective=effective)
+    return RunPlan(scene, effective, backends, timings)
+
+
+def _inputs(plan: RunPlan, masks: Any, matches: Any, progress: bool) -> tuple[list[Any], dict[tuple[int, int], Matches], dict[str, float]]:
+    times: dict[str, float] = {}
+    scene, cfg = plan.scene, plan.config
+    t = time.perf_counter()
+    masks = _given_masks(scene, masks) if masks is not None else compute_masks(scene, plan.backends["segmenter"], cfg, progress=progress)
+    times["segment"] = time.perf_counter() - t
+    if matches is not None:
+        matches = _given_matches(scene, matches)
+    elif "matches" in cfg.requires():  # evidence on demand: matches only when a criterion reads them
+        t = time.perf_counter()
+        matches = compute_matches(scene, plan.backends["matcher"], cfg, progress=progress)
+        times["match"] = time.perf_counter() - t
+    else:
+        matches = {}
+    return masks, matches, times
+
+
 def prepare(
     scene: Scene,
     config: Config | None = None,
@@ -360,30 +513,9 @@ def prepare(
     :func:`graphseg.io.precomputed.save_inputs` saves the three so that a later
     run from them reproduces this one exactly.
     """
-    cfg = config or Config()
-    times: dict[str, float] = {}
-    t = time.perf_counter()
-    if points is not None:
-        from .backends.lifters.precomputed import PrecomputedLifter
-
-        scene = lift(scene, PrecomputedLifter(folder=points), cfg)
-        scene.meta["lifter"] = "precomputed"
-    else:
-        scene = lift(scene, lifter, cfg)
-    times["lift"] = time.perf_counter() - t
-    cfg = cfg.for_lifter(scene.meta.get("lifter"))  # backend options for estimated points (LiftedConfig.backend_options)
-    t = time.perf_counter()
-    masks = _given_masks(scene, masks) if masks is not None else compute_masks(scene, segmenter, cfg, progress=progress)
-    times["segment"] = time.perf_counter() - t
-    if matches is not None:
-        matches = _given_matches(scene, matches)
-    elif "matches" in cfg.requires():  # evidence on demand: matches only when a criterion reads them
-        t = time.perf_counter()
-        matches = compute_matches(scene, matcher, cfg, progress=progress)
-        times["match"] = time.perf_counter() - t
-    else:
-        matches = {}
-    return scene, masks, matches, times
+    plan = plan_run(scene, config, segmenter=segmenter, matcher=matcher, lifter=lifter, points=points)
+    masks, matches, times = _inputs(plan, masks, matches, progress)
+    return plan.scene, masks, matches, {**plan.timings, **times}
 
 
 def run(
@@ -399,7 +531,7 @@ def run(
     matches: Any = None,
     points: Any = None,
 ) -> Result:
-    """Run GraphSeg on ``scene`` with backends.
+    """Run GraphSeg on ``scene`` with backends: :func:`plan_run`, then :func:`execute`.
 
     Parameters
     ----------
@@ -421,16 +553,32 @@ def run(
     Result
         ``info["pipeline"]`` names the backends and holds per-step timings.
     """
-    cfg = config or Config()  # the stages config.method runs (its validator put them there): evidence is computed for them
     t0 = time.perf_counter()
-    times: dict[str, float] = {}
-    scene.validate()
+    plan = plan_run(scene, config, segmenter=segmenter, matcher=matcher, lifter=lifter, points=points)
+    names = {"segmenter": backend_name(segmenter, plan.config.backends.segmenter), "matcher": backend_name(matcher, plan.config.backends.matcher)}
+    return execute(plan, masks=masks, matches=matches, features=features, progress=progress, names=names, start=t0)
+
+
+def execute(
+    plan: RunPlan,
+    *,
+    masks: Any = None,
+    matches: Any = None,
+    features: Any = None,
+    progress: bool = False,
+    names: dict[str, str] | None = None,
+    start: float | None = None,
+) -> Result:
+    """The masks, matches and features of a planned run, then :func:`~graphseg.method.segment.segment` on them.
+
+    ``names`` (``segmenter``, ``matcher``) are recorded in ``info["pipeline"]``
+    (default: the config's backends).
+    """
+    t0 = time.perf_counter() if start is None else start
+    scene, cfg = plan.scene, plan.config
     masks_given, matches_given = masks is not None, matches is not None
-    scene, masks, matches, step_times = prepare(
-        scene, cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, masks=masks, matches=matches, points=points, progress=progress
-    )
-    times.update(step_times)
-    cfg = cfg.for_lifter(scene.meta.get("lifter"))  # options for estimated (not measured) points
+    masks, matches, times = _inputs(plan, masks, matches, progress)
+    times = {**plan.timings, **times}
     feats = None
     if "features" in cfg.requires():
         t = time.perf_counter()
@@ -438,9 +586,22 @@ def run(
         feats = [fx(v) for v in progress_bar(scene.views, "features", progress)]
         times["features"] = time.perf_counter() - t
     t = time.perf_counter()
-    result = segment(scene, masks, matches, cfg, features=feats)
+    result = segment(scene, masks, matches, cfg, features=feats, checked=True)
     times["graph"] = time.perf_counter() - t
     times["total"] = time.perf_counter() - t0
+    _lift_notes(result, scene, cfg)
+    names = names or {"segmenter": cfg.backends.segmenter, "matcher": cfg.backends.matcher}
+    result.info["pipeline"] = {
+        "segmenter": "given" if masks_given else names["segmenter"],
+        "matcher": "given" if matches_given else (names["matcher"] if "matches" in cfg.requires() else None),
+        "lifter": scene.meta["lifter"],
+        "timings": times,
+    }
+    return result
+
+
+def _lift_notes(result: Result, scene: Scene, cfg: Config) -> None:
+    """The lifter's warnings and dropped views, and the one line naming the step that lost every object."""
     lift_warnings = list(scene.meta.get("warnings") or [])  # e.g. views structure from motion did not register
     if lift_warnings:
         result.info["warnings"] = [*lift_warnings, *result.info.get("warnings", [])]
@@ -451,10 +612,3 @@ def run(
         result.info["no_objects"] = why
         kept = [w for w in result.info.get("warnings", []) if not w.startswith(_GENERIC_NO_OBJECT)]
         result.info["warnings"] = [*kept, why["line"]]
-    result.info["pipeline"] = {
-        "segmenter": "given" if masks_given else _name(segmenter, cfg.backends.segmenter),
-        "matcher": "given" if matches_given else (_name(matcher, cfg.backends.matcher) if "matches" in cfg.requires() else None),
-        "lifter": scene.meta["lifter"],
-        "timings": times,
-    }
-    return result

@@ -183,7 +183,7 @@ def test_internal_error_exit_1(monkeypatch, scene_dir, tmp_path, capsys):
     def boom(*a, **k):
         raise RuntimeError("bug")
 
-    monkeypatch.setattr(pl, "run", boom)
+    monkeypatch.setattr(pl, "execute", boom)  # the run after planning
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet"], capsys)
     assert code == 1 and "internal error" in err and "--debug" in err and len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
     code, _, err = run_cli(["run", scene_dir, "-o", tmp_path / "o", "--quiet", "--debug"], capsys)

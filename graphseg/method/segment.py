@@ -886,6 +886,7 @@ def segment(
     *,
     features: Any = None,
     rng: Any = None,
+    checked: bool = False,
 ) -> Result:
     """Run GraphSeg on one scene.
 
@@ -907,6 +908,9 @@ def segment(
     rng : None, int or numpy.random.Generator, keyword-only
         Randomness of the background RANSAC and the contractor; default
         ``config.seed``.
+    checked : bool, keyword-only
+        The caller validated ``scene`` already (:func:`graphseg.pipeline.plan_run`):
+        it is not validated again. The masks and matches always are.
 
     Returns
     -------
@@ -929,7 +933,8 @@ def segment(
     """
     cfg = config or Config()  # Config(method="sam3d") holds the sam3d stages (its validator put them there)
     matches = {} if matches is None else matches
-    scene.validate()
+    if not checked:
+        scene.validate()
     _check_inputs(scene, masks, matches)
     masks = _validate_masks(scene, masks)
     gen = np.random.default_rng(cfg.seed if rng is None else rng)

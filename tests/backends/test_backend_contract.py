@@ -182,7 +182,7 @@ def test_a_class_without_options_gets_no_run_wide_settings():
 
 
 def test_job_reports_a_misspelt_option_before_reading_images():
-    from graphseg.job import resolve_backends
+    from graphseg.pipeline import resolve_backends
 
     cfg = Config(backends={"options": {"geometric": {"min_aera": 5}}})
     with pytest.raises(SceneError, match="backends.options.geometric.min_aera: unknown option 'min_aera'.*did you mean 'min_area'"):
