@@ -40,7 +40,7 @@ def ycbv(request):
     root = Path(__file__).resolve().parents[3] / "shared" / "data" / "ycbv" / "0002"
     if not root.is_dir():
         pytest.skip("needs ../shared/data/ycbv")
-    scene = lift(load_scene(root, num_views=4))
+    scene = lift(load_scene(root, num_views=3))
     return scene, compute_masks(scene), compute_matches(scene)
 
 
@@ -59,16 +59,26 @@ def _check(result, name):
     return g
 
 
+_RUNS: dict = {}
+
+
+def _run(inputs, name):
+    """One run per scene and configuration, shared by the tests of this module."""
+    key = (id(inputs), name)
+    if key not in _RUNS:
+        scene, masks, matches = inputs
+        _RUNS[key] = run(scene, _config(name), masks=masks, matches=matches)
+    return _RUNS[key]
+
+
 @pytest.mark.parametrize("name", CONFIGS)
 def test_synthetic_labels_are_the_painted_objects_graph(synthetic, name):
-    scene, masks, matches = synthetic
-    _check(run(scene, _config(name), masks=masks, matches=matches), name)
+    _check(_run(synthetic, name), name)
 
 
 @pytest.mark.parametrize("name", CONFIGS)
 def test_ycbv_labels_are_the_painted_objects_graph(ycbv, name):
-    scene, masks, matches = ycbv
-    g = _check(run(scene, _config(name), masks=masks, matches=matches), name)
+    g = _check(_run(ycbv, name), name)
     if name == "rgbd":  # touching objects: the split cut the contracted nodes, and the graph keeps the cuts
         assert "split" in g.meta["steps"] and (g.edge_attr["cut_by"] == "split").any()
 
@@ -76,8 +86,7 @@ def test_ycbv_labels_are_the_painted_objects_graph(ycbv, name):
 def test_the_objects_graph_survives_save_and_load(synthetic, tmp_path):
     from graphseg.result import Result
 
-    scene, masks, matches = synthetic
-    r = run(scene, Config.preset("rgbd"), masks=masks, matches=matches)
+    r = _run(synthetic, "rgbd")
     r.save(tmp_path / "r.npz")
     back = Result.load(tmp_path / "r.npz").objects_graph
     g = r.objects_graph
