@@ -637,6 +637,24 @@ class OperationSpec(_PluginSpec):
 
         return operations
 
+    @model_validator(mode="before")
+    @classmethod
+    def _section_options(cls, value: Any) -> Any:
+        """A built-in operation given options in ``stages``: one line naming the section that holds them."""
+        from .registry import PluginNotFoundError
+
+        if isinstance(value, dict) and len(value) == 1:
+            ((name, opts),) = value.items()
+            try:
+                section = getattr(cls._registry().get(name), "section", None) if isinstance(name, str) else None
+            except PluginNotFoundError:
+                return value  # the generic parser names the unknown operation
+            if section and opts:
+                raise PydanticCustomError(
+                    "criterion_options", "{name}: takes its options from the {section} section, not from stages (got {keys})", {"name": name, "section": section, "keys": ", ".join(map(str, opts))}
+                )
+        return value
+
     @property
     def kind(self) -> str:
         """``"objects"`` (recorded in the objects graph) or ``"pixels"`` (a pixel refiner)."""

@@ -312,3 +312,32 @@ def test_lifted_preset_swaps_stages_and_contractor_for_estimated_points_only():
     assert Config.preset("rgbd").lifted.preset is None
     with pytest.raises(ValidationError, match="unknown preset 'robsut'"):
         Config.preset("rgbd", lifted={"preset": "robsut"})
+
+
+@pytest.mark.parametrize(
+    ("stages", "line"),
+    [
+        ([["pixel_match"], "split", ["chamfer_3d"]], "stages: graph operations come after the last edge stage (got [pixel_match], split, [chamfer_3d])"),
+        ([["pixel_match"], "trim", "split"], "stages: pixel refiners come after every graph operation that decides objects (got [pixel_match], trim, split)"),
+        ([["pixel_match"], {"split": {"max_ncut": 0.1}}], "stages.1: split: takes its options from the split section, not from stages (got max_ncut)"),
+        ([["pixel_match"], "splt"], "stages.1: unknown graph operation 'splt'; installed choices: support, split, merge, join_shared, mask_join, snap, support_final, refine, grow, trim"),
+        (["split"], "stages: stages must start with non-empty lists of criteria (the edge stages)"),
+    ],
+)
+def test_the_step_list_is_validated_with_one_line(stages, line):
+    """Issue 53: the step list's rules, each broken once, give one line naming it."""
+    from pydantic import ValidationError
+
+    from graphseg.config import validation_message
+
+    with pytest.raises(ValidationError) as err:
+        Config(stages=stages)
+    assert validation_message(err.value) == line
+
+
+def test_old_enabled_switches_become_operations_and_edge_stages_alone_get_the_support():
+    assert Config(stages=[["pixel_match"]]).step_names() == [["pixel_match"], "support", "support_final"]
+    old = Config.preset("paper", split={"enabled": True}, trim={"enabled": True})  # a config file of before the step list
+    assert old.step_names()[2:] == ["support", "split", "merge", "join_shared", "mask_join", "snap", "support_final", "trim"]
+    assert Config.preset("rgbd", split={"enabled": False}).step_names()[2:] == ["support", "support_final"]
+    assert Config.model_validate(old.to_dict()) == old  # saved in the new form, reloads to the same method
