@@ -146,8 +146,7 @@ def test_every_plugin_kind_is_one_module_its_test_and_an_entry_point(extras_inst
 def test_the_backend_plugins_get_run_wide_settings_and_one_line_errors(extras_installed):
     from pydantic import ValidationError
 
-    from graphseg.pipeline import resolve_backends
-    from graphseg.pipeline import resolve_backend
+    from graphseg.pipeline import resolve_backend, resolve_backends
     from graphseg.scene import SceneError
 
     assert resolve_backend("matcher", "orb", Config(backends={"num_matches": 77})).options.num_matches == 77  # a declared field

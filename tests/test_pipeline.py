@@ -160,8 +160,7 @@ def test_estimated_points_are_matched_with_the_colour_test():
     landing there are dropped for 'sfm' points and kept for measured depth; run_job does the same."""
     import numpy as np
 
-    from graphseg.pipeline import backends_for_lifter, resolve_backends
-    from graphseg.pipeline import prepare
+    from graphseg.pipeline import backends_for_lifter, prepare, resolve_backends
 
     scene = box_scene(TWO_BOXES, views=2)
     v1 = scene.views[1]

@@ -514,8 +514,7 @@ class SceneGraph:
 
     def _add(self, items: Any, *, segmenter: Any, matcher: Any, lifter: Any, features: Any, masks: Sequence[Any] | None, select: dict[str, Any], progress: bool) -> AddReport:
         from ..geometry import scene_scale, select_pairs
-        from ..pipeline import backends_for_lifter, resolve_backends
-        from ..pipeline import lift, progress_bar
+        from ..pipeline import backends_for_lifter, lift, progress_bar, resolve_backends
 
         t0 = time.perf_counter()
         timings: dict[str, float] = {}
