@@ -72,15 +72,12 @@ _LOW_FORBIDDEN = (
 )
 _BACKENDS_MAY = ("graphseg.backends", "graphseg.scene", "graphseg.geometry", "graphseg.io", "graphseg.registry", "graphseg.quiet", "graphseg.validation", "graphseg.background_config")
 _RENDERERS = ("graphseg.report", "graphseg.render_audit")
+#: Plain data and helpers every layer may import.
+_PLAIN = ("graphseg.config", "graphseg.presets", "graphseg.published", "graphseg.background_config", "graphseg.validation", "graphseg.registry")
 #: What the method (``graphseg.method``) may import: the arrays, graphs and config of one run, nothing that drives it.
 _METHOD_MAY = (
+    *_PLAIN,
     "graphseg.method",
-    "graphseg.config",
-    "graphseg.presets",
-    "graphseg.published",
-    "graphseg.background_config",
-    "graphseg.validation",
-    "graphseg.registry",
     "graphseg.geometry",
     "graphseg.graphs",
     "graphseg.io",
@@ -90,12 +87,7 @@ _METHOD_MAY = (
 )
 #: What the configuration may import: plain data and the registries it validates names against.
 _CONFIG_MAY = (
-    "graphseg.config",
-    "graphseg.presets",
-    "graphseg.published",
-    "graphseg.background_config",
-    "graphseg.validation",
-    "graphseg.registry",
+    *_PLAIN,
     "graphseg.graphs.registry",
     "graphseg.graphs.criterion",
 )

@@ -338,10 +338,11 @@ def paint_objects(graph: CorrespondenceGraph) -> list[np.ndarray]:
     if (obj[bg] != 0).any():
         raise ValueError("a background node carries an object id")
     fg = np.flatnonzero(~bg & (obj > 0))
-    per_comp: dict[int, int] = {}
-    for c, o in zip(comp[fg].tolist(), obj[fg].tolist()):
-        if per_comp.setdefault(c, o) != o:
-            raise ValueError(f"live component {c} holds objects {per_comp[c]} and {o}")
+    pairs = np.unique(np.stack([comp[fg], obj[fg]]), axis=1)  # (component, object), sorted by component
+    two = np.flatnonzero(pairs[0, 1:] == pairs[0, :-1])
+    if two.size:
+        c = int(pairs[0, two[0]])
+        raise ValueError(f"live component {c} holds objects {int(pairs[1, two[0]])} and {int(pairs[1, two[0] + 1])}")
     value = np.where(~bg, obj, 0)
     mem = graph.members
     out = []

@@ -121,10 +121,6 @@ class ObjectSteps:
         self.settled = True
 
 
-def _pairs(records: Sequence[dict[str, Any]], key: str) -> dict[frozenset[int], float]:
-    return {frozenset(int(i) for i in r["ids"]): float(r[key]) for r in records if r.get(key) is not None}
-
-
 def run_operations(ctx: StepContext, operations: Sequence[Any], labels: list[np.ndarray], obj: np.ndarray, *, first_step: str) -> ObjectSteps:
     """Run the graph operations of the step list after the last contraction, in order.
 

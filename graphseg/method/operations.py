@@ -57,7 +57,7 @@ from ..validation import NoOptions, options_from
 from .grow import grow_rims
 from .join import join_by_masks, join_objects
 from .masks import snap_to_masks
-from .objects import ObjectSteps, StepContext, _pairs
+from .objects import ObjectSteps, StepContext
 from .refine import refine_labels
 from .split import merge_objects, split_objects
 from .trim import trim_rims
@@ -75,6 +75,11 @@ __all__ = [
     "Grow",
     "Trim",
 ]
+
+
+def _pairs(records: list[dict[str, Any]], key: str) -> dict[frozenset[int], float]:
+    """A join step's records as the evidence of its edges: ``frozenset(ids) -> value``."""
+    return {frozenset(int(i) for i in r["ids"]): float(r[key]) for r in records if r.get(key) is not None}
 
 
 class Operation:
