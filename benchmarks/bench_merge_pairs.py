@@ -62,8 +62,7 @@ def pair_costs(scene, masks, matches) -> list[dict]:
     out = []
     for a, b in combinations(range(1, res.num_objects + 1), 2):
         alone = [np.where((lab == a) | (lab == b), lab, 0) for lab in res.labels]
-        graph = sp.model_dump(include={"voxel_size", "min_voxels", "concave_weight", "concave_angle", "concave_margin"})
-        _, info = merge_objects(alone, points, cameras, min_ncut=0.0, **graph, rng=cfg.seed)
+        _, info = merge_objects(alone, points, cameras, sp.model_copy(update={"merge_ncut": 0.0}), rng=cfg.seed)  # join anyway, to read the cost
         if info["merges"]:  # they touch, and both are large enough to be measured
             cost = info["merges"][0]["ncut"]
             out.append({"ids": [a, b], "cost": cost, "same": bool(truth[a] == truth[b] and truth[a] > 0)})  # cost None: too small to cut

@@ -139,7 +139,7 @@ def measure(case: str, files: dict[str, str], grid: int) -> dict[str, object]:
     if case.startswith("sam2"):
         from graphseg.backends.registry import segmenters
         from graphseg.backends.segmenters.automask import generate_masks
-        from graphseg.backends.segmenters.sam import AutomaskOptions, sam2_predictor
+        from graphseg.backends.segmenters.sam import sam2_predictor
 
         with _Clock(t, "load"):
             seg = segmenters.resolve("sam2", checkpoint=files["checkpoint"], points_per_side=grid)
@@ -149,7 +149,7 @@ def measure(case: str, files: dict[str, str], grid: int) -> dict[str, object]:
         with _Clock(t, "decoder_batch64"):
             predict(pts, np.ones(64, np.int64))
         with _Clock(t, f"automask_grid{grid}"):
-            props = generate_masks(predict, vi.rgb.shape[:2], **AutomaskOptions.generator_kwargs(seg.options))
+            props = generate_masks(predict, vi.rgb.shape[:2], seg.options)
         t["masks"] = len(props.masks)
         t["grid32_estimate_s"] = round(float(t["encoder_s"]) + 16 * float(t["decoder_batch64_s"]), 2)  # type: ignore[arg-type]
     elif case in ("loftr", "roma", "tiny-roma"):

@@ -88,11 +88,11 @@ def main(argv=None):
     from graphseg.backends.lifters.sfm import SfmLifter
     from graphseg.config import Config
     from graphseg.pipeline import lift
-    from graphseg.sim.pybullet_scenes import synthesize
+    from graphseg.sim.pybullet_scenes import CameraRig, synthesize
     from graphseg.sim.strip import rgb_only
 
     cfg = Config.preset("rgbd")
-    scene = synthesize(seed=200, objects=5, views=8, size=(640, 480), arc_deg=70.0)
+    scene = synthesize(seed=200, objects=5, views=8, size=(640, 480), cameras=CameraRig(arc_deg=70.0))
     rows = [{"points": "rgbd (true depth)", **measure(scene, [v.points for v in lift(scene, None, cfg).views], cfg)}]
     bare = rgb_only(scene, keep_intrinsics=False)
     rec, scale = SfmLifter().reconstruct(bare)

@@ -458,13 +458,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         args.scene,
         args.out,
         cfg,
-        segmenter=args.segmenter,
-        matcher=args.matcher,
-        lifter=args.lifter,
+        backends={"segmenter": args.segmenter, "matcher": args.matcher, "lifter": args.lifter},
+        read=sel,
         overwrite=args.overwrite,
         progress=not _flag(args, "quiet"),
         inputs=inputs,
-        **sel,
     )
     asked, used = sel["num_views"], len(job.scene)
     if asked is not None and used < asked:  # the readers select min(asked, views) views
@@ -567,9 +565,9 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def _synthesize(seed: int, objects: int, views: int, size: tuple[int, int], arc: float = 360.0, layout: str = "spread") -> Any:
     """A pybullet scene; raises MissingDependencyError (naming graphseg[sim]) without pybullet."""
-    from .sim.pybullet_scenes import synthesize
+    from .sim.pybullet_scenes import CameraRig, synthesize
 
-    return synthesize(seed=seed, objects=objects, views=views, size=size, arc_deg=arc, layout=layout)
+    return synthesize(seed=seed, objects=objects, views=views, size=size, cameras=CameraRig(arc_deg=arc), layout=layout)
 
 
 def _check_synth_args(args: argparse.Namespace) -> None:
@@ -812,8 +810,7 @@ def _run_batch(args: argparse.Namespace, executor: Any, methods: list[str] | Non
         config_files=args.config,
         preset=args.preset,
         num_views=_num_views_list(args.num_views),
-        split=args.split,
-        videos=[v.strip() for v in args.videos.split(",") if v.strip()] if args.videos else None,
+        dataset={"split": args.split, "videos": [v.strip() for v in args.videos.split(",") if v.strip()] if args.videos else None},
         backends={"segmenter": args.segmenter, "matcher": args.matcher, "lifter": args.lifter},
         executor=executor,
         progress=not _flag(args, "quiet"),

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -139,18 +139,22 @@ def evaluate_scene(result: Result, scene: Scene) -> dict[str, Any] | None:
     return evaluate(result.labels, [np.asarray(v.instances) for v in scene.views], [np.asarray(v.points) for v in scene.views], names=scene.objects)
 
 
+def _named(given: Mapping[str, Any] | None, keys: tuple[str, ...], what: str) -> list[Any]:
+    """The values of ``keys`` in ``given`` (None where absent); an unknown key is a ValueError naming it."""
+    given = dict(given or {})
+    unknown = sorted(set(given) - set(keys))
+    if unknown:
+        raise ValueError(f"run_job {what}: unknown key {unknown[0]!r} (expected {', '.join(keys)})")
+    return [given.get(k) for k in keys]
+
+
 def run_job(
     scene_or_path: Scene | str | os.PathLike[str],
     out: str | os.PathLike[str] | None,
     config: Config | None = None,
     *,
-    segmenter: Any = None,
-    matcher: Any = None,
-    lifter: Any = None,
-    views: Sequence[int | str] | None = None,
-    step: int | None = None,
-    num_views: int | None = None,
-    format: str | None = None,
+    backends: Mapping[str, Any] | None = None,
+    read: Mapping[str, Any] | None = None,
     overwrite: bool = False,
     progress: bool = False,
     inputs: Sequence[str | os.PathLike[str]] = (),
@@ -172,14 +176,15 @@ def run_job(
         :attr:`JobResult.warnings` says so.
     config : Config, optional
         Default ``Config()``.
-    segmenter, matcher, lifter : name, class or instance, optional
-        Default to ``config.backends``. The lifter runs only when the scene has
-        no point maps or a lifter is named.
-    views, step, num_views : optional
-        View selection when reading a path (see :func:`graphseg.io.select_indices`;
-        ``views`` entries that are strings match view names).
-    format : str, optional
-        Scene layout (default: detected).
+    backends : dict, optional
+        ``segmenter``, ``matcher``, ``lifter``: a name, class or instance each
+        (None or absent: ``config.backends``'s). The lifter runs only when the
+        scene has no point maps or a lifter is named.
+    read : dict, optional
+        How to read the scene: ``views``, ``step``, ``num_views`` (the view
+        selection, :func:`graphseg.io.select_indices`; ``views`` entries that
+        are strings match view names; an in-memory scene is selected the same
+        way) and ``format`` (a path's layout; default: detected).
     overwrite : bool
         Replace an existing target that is no graphseg output of ``kind``
         (it is kept as ``OUT.graphseg-backup-N``).
@@ -209,6 +214,8 @@ def run_job(
     from .pipeline import backend_name, execute, plan_run, resolve_backends
 
     cfg = config or Config()
+    segmenter, matcher, lifter = _named(backends, ("segmenter", "matcher", "lifter"), "backends")
+    views, step, num_views, format = _named(read, ("views", "step", "num_views", "format"), "read")
     t0 = time.perf_counter()
     timings: dict[str, float] = {}
     is_path = not isinstance(scene_or_path, Scene)

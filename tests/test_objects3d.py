@@ -235,10 +235,10 @@ def test_meshes_of_a_pybullet_scene_segmented_by_the_pipeline_are_within_1cm():
     _open3d()
     pytest.importorskip("pybullet")
     from graphseg.pipeline import lift, run
-    from graphseg.sim.pybullet_scenes import synthesize
+    from graphseg.sim.pybullet_scenes import CameraRig, synthesize
 
     cfg = Config.preset("rgbd")
-    scene = lift(synthesize(seed=3, objects=4, views=5, size=(320, 240), arc_deg=360), None, cfg)
+    scene = lift(synthesize(seed=3, objects=4, views=5, size=(320, 240), cameras=CameraRig(arc_deg=360)), None, cfg)
     result = run(scene, cfg)
     truth = gt_boxes(scene)
     assert result.num_objects == len(truth) == 4

@@ -135,7 +135,7 @@ def close_views():
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(ps, "render_view", near_first)
-        return ps.synthesize(seed=3, objects=4, views=3, size=(320, 240), arc_deg=50, settle_steps=240, table_texture="noise")
+        return ps.synthesize(seed=3, objects=4, views=3, size=(320, 240), cameras=ps.CameraRig(arc_deg=50), settle_steps=240, table_texture="noise")
 
 
 def test_close_views_with_given_cameras_are_refused(close_views, tmp_path, capsys):

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from graphseg.sim.boxes import Box, intrinsics, look_at, render_boxes
-from graphseg.sim.pybullet_scenes import linearize_depth, projection_K
+from graphseg.sim.pybullet_scenes import CameraRig, linearize_depth, projection_K
 
 pb = pytest.importorskip("pybullet")
 
@@ -187,7 +187,7 @@ def _digest(scene):
     [
         # computed with the generator as it was before the options (object_set, table_texture, lighting) existed
         (dict(seed=0, objects=3, views=2, size=(96, 72)), "728ee55ec4bc17e595348d2033500c20e08717cf354a1b1ab6d8e5cd466728e5"),
-        (dict(seed=7, objects=5, views=3, size=(160, 120), arc_deg=50.0, layout="touching"), "878e1dff9a9008387fc7480a9b15ab2680713574538366cb1029fd065aa7d98e"),
+        (dict(seed=7, objects=5, views=3, size=(160, 120), cameras=CameraRig(arc_deg=50.0), layout="touching"), "878e1dff9a9008387fc7480a9b15ab2680713574538366cb1029fd065aa7d98e"),
     ],
 )
 def test_default_output_is_unchanged_by_the_options(kwargs, expected):
@@ -200,7 +200,7 @@ def test_default_output_is_unchanged_by_the_options(kwargs, expected):
     assert _digest(synthesize(**kwargs, object_set="bundled", table_texture=None, lighting=None)) == expected
 
 
-_OPTIONS = dict(seed=11, objects=4, views=2, size=(64, 48), object_set="mixed", table_texture="noise", lighting="vary", arc_deg=40.0)
+_OPTIONS = dict(seed=11, objects=4, views=2, size=(64, 48), object_set="mixed", table_texture="noise", lighting="vary", cameras=CameraRig(arc_deg=40.0))
 
 
 def test_options_render_byte_identically_across_processes():
@@ -213,15 +213,15 @@ def test_options_render_byte_identically_across_processes():
     code = (
         "import json, sys\n"
         "from tests.test_sim import _digest\n"
-        "from graphseg.sim.pybullet_scenes import synthesize\n"
-        "kw = json.loads(sys.argv[1]); kw['size'] = tuple(kw['size'])\n"
+        "from graphseg.sim.pybullet_scenes import CameraRig, synthesize\n"
+        "kw = json.loads(sys.argv[1]); kw['size'] = tuple(kw['size']); kw['cameras'] = CameraRig(**kw['cameras'])\n"
         "print(_digest(synthesize(**kw)))\n"
     )
     here = _digest(synthesize(**_OPTIONS))
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    out = subprocess.run([sys.executable, "-c", code, json.dumps(_OPTIONS)], capture_output=True, text=True, cwd=root, check=True)
+    out = subprocess.run([sys.executable, "-c", code, json.dumps({**_OPTIONS, "cameras": vars(_OPTIONS["cameras"])})], capture_output=True, text=True, cwd=root, check=True)
     assert out.stdout.split()[-1] == here
     for oset in ("procedural", "bundled"):  # and again in this process, for the other sets
         kw = {**_OPTIONS, "object_set": oset, "table_texture": "photo"}

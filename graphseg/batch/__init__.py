@@ -151,8 +151,7 @@ def run_batch(
     config_files: Sequence[str] | None = None,
     preset: str | None = None,
     num_views: Sequence[int | None] = (None,),
-    split: str | None = None,
-    videos: Sequence[str] | None = None,
+    dataset: dict[str, Any] | None = None,
     backends: dict[str, str | None] | None = None,
     executor: Any = None,
     progress: bool = False,
@@ -162,7 +161,7 @@ def run_batch(
     Parameters
     ----------
     scenes : list of str
-        Scene folders, glob patterns, or dataset roots (with ``split`` / ``videos``).
+        Scene folders, glob patterns, or dataset roots (with ``dataset``).
     out : path-like
         The batch folder: new, or an earlier batch output (resumed).
     methods, config_files, preset
@@ -170,6 +169,9 @@ def run_batch(
         ``preset`` None: ``Config()``).
     num_views : list of int or None
         View counts (evenly spaced views; None = all views).
+    dataset : dict, optional
+        For dataset roots: ``{"split": ..., "videos": [...]}`` (see
+        :func:`graphseg.batch.tasks.expand_scenes`).
     backends : dict, optional
         ``{"segmenter": ..., "matcher": ..., "lifter": ...}`` names.
     executor : LocalExecutor or RayExecutor, optional
@@ -192,7 +194,11 @@ def run_batch(
     """
     t0 = time.perf_counter()
     root = Path(out)
-    specs = expand_scenes(scenes, split=split, videos=videos)
+    dataset = dict(dataset or {})
+    unknown = sorted(set(dataset) - {"split", "videos"})
+    if unknown:
+        raise SceneError(f"unknown dataset option {unknown[0]!r} (expected split, videos)", where=str(out), field="dataset")
+    specs = expand_scenes(scenes, split=dataset.get("split"), videos=dataset.get("videos"))
     configs = configurations(methods, config_files, preset=preset, backends=backends)
     _check_out(root, [s.path for s in specs] + list(config_files or []))
     if any(n is not None and n < 1 for n in num_views):

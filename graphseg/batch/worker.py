@@ -67,10 +67,8 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
             task["scene"],
             task["out"],
             cfg,
-            segmenter=be.get("segmenter"),
-            matcher=be.get("matcher"),
-            lifter=be.get("lifter"),
-            num_views=task["num_views"],
+            backends={k: be.get(k) for k in ("segmenter", "matcher", "lifter")},
+            read={"num_views": task["num_views"]},
             run_info={"batch": batch},
         )
         rec.update(

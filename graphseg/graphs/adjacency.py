@@ -20,8 +20,8 @@ Examples
 >>> import numpy as np
 >>> lab = np.array([[0, 0, 1, 1]])
 >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, :, 0] = [0.0, 0.001, 0.002, 0.003]  # one flat surface
->>> opts = {**SmoothAdjacency.Options().model_dump(), "min_pairs": 1, "concave": None}  # the defaults live in Options
->>> smooth_adjacency_links([lab], [pts], 2, **opts).edge_index.tolist()  # one row: no normals
+>>> opts = SmoothAdjacency.Options(min_pairs=1, concave=None)  # the defaults live in Options
+>>> smooth_adjacency_links([lab], [pts], 2, opts).edge_index.tolist()  # one row: no normals
 [[0], [1]]
 """
 
@@ -44,15 +44,9 @@ def smooth_adjacency_links(
     node_labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray | None],
     num_nodes: int,
+    options: SmoothAdjacency.Options,
     *,
-    jump: float | None,
-    concave: float | None,
-    max_separated: float,
-    min_pairs: int,
-    reach: int,
-    normal_step: int,
     rgb: Sequence[np.ndarray] | None = None,
-    color: float | None,
     normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Attractive edges between nodes that touch along a long, smooth, convex boundary.
@@ -64,6 +58,9 @@ def smooth_adjacency_links(
     points : list of float ``[H, W, 3]`` (or None per view)
         World points, NaN = invalid.
     num_nodes : int
+    options : SmoothAdjacency.Options
+        Required: the defaults live there. Its fields:
+
     jump : float, optional
         Metres; a larger 3D step across the boundary is a separation.
     concave : float, optional
@@ -71,7 +68,6 @@ def smooth_adjacency_links(
         whose convexity is unknown (next to invalid depth) are left out.
     reach, normal_step : int
         Pixel offsets compared across the boundary; step of the normals.
-    rgb : list of uint8 ``[H, W, 3]``, optional
     color : float, optional
         With ``rgb``: a colour edge (CIE a*b* difference) is a separation. The
         default (:class:`SmoothAdjacency.Options`) was measured: without it, objects that touch along a flat
@@ -86,10 +82,10 @@ def smooth_adjacency_links(
     min_pairs : int
         ... and it has at least this many boundary pixel pairs (pooled over
         views): a short contact is no evidence.
-    normals : list of float ``[H, W, 3]``, optional
+    rgb : list of uint8 ``[H, W, 3]``, optional, keyword-only
+        The views' colours, for ``color``.
+    normals : list of float ``[H, W, 3]``, optional, keyword-only
         Precomputed normals at ``normal_step`` (see :func:`graphseg.graphs.repulsion.boundary_separation`).
-
-    Every option is a required keyword: the defaults live in :class:`SmoothAdjacency.Options`.
 
     Returns
     -------
@@ -101,12 +97,10 @@ def smooth_adjacency_links(
     -----
     O(reach x total pixels) plus one sort of the boundary pixel pairs.
     """
-    if jump is None and concave is None and (color is None or rgb is None):
+    if options.jump is None and options.concave is None and (options.color is None or rgb is None):
         raise ValueError("smooth_adjacency: no separation test (jump, concave and color are all off); every touching pair would join")
-    pairs, count, sep = boundary_separation(
-        node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, rgb=rgb, color=color, drop_unknown=True, normals=normals
-    )
-    keep = (count >= min_pairs) & (sep <= max_separated)
+    pairs, count, sep = boundary_separation(node_labels, points, num_nodes, options, rgb=rgb, drop_unknown=True, normals=normals)
+    keep = (count >= options.min_pairs) & (sep <= options.max_separated)
     n = int(keep.sum())
     return EdgeSet(pairs[:, keep], {"criterion": np.full(n, "smooth_adjacency"), "weight": 1.0 - sep[keep], "count": count[keep]}, info={"links": n})
 
@@ -147,9 +141,9 @@ class SmoothAdjacency(Criterion):
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         if evidence.points is None:
             raise ValueError("smooth_adjacency needs world points")
-        opts = self.options.model_dump()
-        rgb = evidence.rgb if opts["color"] is not None else None
-        if opts["color"] is not None and rgb is None:
+        opts = self.options
+        rgb = evidence.rgb if opts.color is not None else None
+        if opts.color is not None and rgb is None:
             raise ValueError("smooth_adjacency with color needs rgb images")
-        normals = evidence.normals(opts["normal_step"]) if opts["concave"] is not None else None
-        return smooth_adjacency_links(evidence.node_labels, evidence.points, graph.num_nodes, rgb=rgb, normals=normals, **opts)
+        normals = evidence.normals(opts.normal_step) if opts.concave is not None else None
+        return smooth_adjacency_links(evidence.node_labels, evidence.points, graph.num_nodes, opts, rgb=rgb, normals=normals)

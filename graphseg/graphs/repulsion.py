@@ -14,14 +14,14 @@ Examples
 >>> import numpy as np
 >>> lab = np.array([[0, 0, 1, 1]])
 >>> pts = np.zeros((1, 4, 3), np.float32); pts[0, 2:, 2] = 0.1   # 10 cm step between the masks
->>> opts = {**DepthRepulsion.Options().model_dump(), "min_pairs": 1}  # the defaults live in Options
->>> depth_jump_cannot_links([lab], [pts], 2, **opts).edge_index.tolist()
+>>> depth_jump_cannot_links([lab], [pts], 2, DepthRepulsion.Options(min_pairs=1)).edge_index.tolist()  # the defaults live in Options
 [[0], [1]]
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -121,13 +121,9 @@ def boundary_separation(
     node_labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray | None],
     num_nodes: int,
+    options: Any,
     *,
-    jump: float | None,
-    concave: float | None,
-    reach: int,
-    normal_step: int,
     rgb: Sequence[np.ndarray] | None = None,
-    color: float | None = None,
     drop_unknown: bool = False,
     normals: Sequence[np.ndarray | None] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -137,6 +133,10 @@ def boundary_separation(
     ----------
     node_labels, points : per view ``[H, W]`` (-1 = none) and ``[H, W, 3]`` (NaN = invalid; None: view skipped)
     num_nodes : int
+    options : DepthRepulsion.Options, SmoothAdjacency.Options or any object with these attributes
+        The boundary tests, read as attributes (a criterion's ``Options``: the
+        defaults live there):
+
     jump : float, optional
         Metres; a boundary pixel pair farther apart is a separation (a depth jump).
     concave : float, optional
@@ -150,12 +150,12 @@ def boundary_separation(
         See :func:`boundary_jumps`.
     normal_step : int
         Pixel step of the normals' central differences.
-    rgb : list of uint8 ``[H, W, 3]``, optional
-    color : float, optional
+    color : float, optional (an absent attribute is None)
         With ``rgb``: a boundary pixel pair whose CIE a*b* chromaticity
         (OpenCV's 8-bit scale, blurred with sigma 1 px) differs by more than
         this is a separation too: the boundary is a colour edge.
-    drop_unknown : bool
+    rgb : list of uint8 ``[H, W, 3]``, optional, keyword-only
+    drop_unknown : bool, keyword-only
         With ``concave``: leave out boundary pixel pairs whose convexity is
         unknown (normals are NaN within ``normal_step`` px of an invalid point
         and at the image border). Attractive evidence needs this: a crease
@@ -182,10 +182,12 @@ def boundary_separation(
     Examples
     --------
     >>> pts = np.zeros((1, 2, 3)); pts[0, 1, 2] = 0.5
-    >>> p, c, s = boundary_separation([np.array([[0, 1]])], [pts], 2, jump=0.02, concave=None, reach=1, normal_step=3)
+    >>> p, c, s = boundary_separation([np.array([[0, 1]])], [pts], 2, DepthRepulsion.Options(jump=0.02, reach=1))
     >>> p.tolist(), c.tolist(), s.tolist()
     ([[0], [1]], [1], [1.0])
     """
+    jump, concave, reach, normal_step = options.jump, options.concave, options.reach, options.normal_step
+    color = getattr(options, "color", None)
     use_color = color is not None and rgb is not None
     if use_color and len(rgb) != len(node_labels):  # type: ignore[arg-type]
         raise ValueError(f"expected one rgb image per view ({len(node_labels)}) (got {len(rgb)})")  # type: ignore[arg-type]
@@ -239,14 +241,8 @@ def depth_jump_cannot_links(
     node_labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray],
     num_nodes: int,
+    options: DepthRepulsion.Options,
     *,
-    jump: float | None,
-    fraction: float,
-    reach: int,
-    min_pairs: int,
-    same_view: bool,
-    concave: float | None,
-    normal_step: int,
     normals: Sequence[np.ndarray | None] | None = None,
 ) -> EdgeSet:
     """Cannot-link edges between nodes whose shared boundary is mostly a depth jump or a concave crease.
@@ -255,6 +251,9 @@ def depth_jump_cannot_links(
     ----------
     node_labels, points : per view ``[H, W]`` and ``[H, W, 3]``
     num_nodes : int
+    options : DepthRepulsion.Options
+        Required: the defaults live there. Its fields:
+
     jump, concave : float, optional
         What separates two nodes across a boundary pixel pair: a 3D step over
         ``jump`` metres, a convexity below ``-concave`` (see
@@ -272,10 +271,8 @@ def depth_jump_cannot_links(
         ``min_pairs`` boundary pixel pairs, less than ``fraction`` of them
         separations). Parts of one surface touch smoothly; separate objects
         meet at a jump or not at all.
-    normals : list of float ``[H, W, 3]``, optional
+    normals : list of float ``[H, W, 3]``, optional, keyword-only
         Precomputed normals at ``normal_step`` (see :func:`boundary_separation`).
-
-    Every option is a required keyword: the defaults live in :class:`DepthRepulsion.Options`.
 
     Returns
     -------
@@ -287,9 +284,10 @@ def depth_jump_cannot_links(
     -----
     O(reach x total pixels) plus one sort of the boundary pairs.
     """
-    if jump is None and concave is None:
+    fraction, min_pairs, same_view = options.fraction, options.min_pairs, options.same_view
+    if options.jump is None and options.concave is None:
         raise ValueError("depth_repulsion: jump and concave are both None; give at least one")
-    pairs, count, frac = boundary_separation(node_labels, points, num_nodes, jump=jump, concave=concave, reach=reach, normal_step=normal_step, normals=normals)
+    pairs, count, frac = boundary_separation(node_labels, points, num_nodes, options, normals=normals)
     seen = count >= min_pairs
     keep = seen & (frac >= fraction)
     ei, w, c = pairs[:, keep], frac[keep], count[keep]
@@ -348,6 +346,6 @@ class DepthRepulsion(Criterion):
     def __call__(self, graph: CorrespondenceGraph, evidence: Evidence) -> EdgeSet:
         if evidence.points is None:
             raise ValueError("depth_repulsion needs world points")
-        opts = self.options.model_dump()
-        normals = evidence.normals(opts["normal_step"]) if opts["concave"] is not None else None
-        return depth_jump_cannot_links(evidence.node_labels, evidence.points, graph.num_nodes, normals=normals, **opts)  # type: ignore[arg-type]
+        opts = self.options
+        normals = evidence.normals(opts.normal_step) if opts.concave is not None else None
+        return depth_jump_cannot_links(evidence.node_labels, evidence.points, graph.num_nodes, opts, normals=normals)  # type: ignore[arg-type]

@@ -121,25 +121,10 @@ class Support(Operation):
         if cfg.objects.min_measured > 0:
             st.lineage.record("unmeasured", st.labels, reason="unmeasured")
         foreground = [np.isfinite(p[..., 0]) & ~b for p, b in zip(ctx.points, ctx.background)]
-        st.obj, st.labels, st.support = apply_min_support(
-            st.obj,
-            st.labels,
-            ctx.points,
-            cfg.objects.min_views,
-            ctx.min_points,
-            cameras=ctx.cameras,
-            foreground=foreground,
-            min_confirm=int(np.ceil(cfg.objects.confirm_fraction * ctx.pixels)),
-            mask_view=ctx.mask_view,
-            merge=cfg.objects.merge_seen,
-        )
+        st.obj, st.labels, st.support = apply_min_support(st.obj, st.labels, ctx.points, cfg.objects, cameras=ctx.cameras, foreground=foreground, mask_view=ctx.mask_view)
         st.support["unmeasured"] = unmeasured
         st.num_objects = int(st.obj.max()) if st.obj.size else 0
         st.lineage.record("support", st.labels, reason="support")
-
-
-def _graph_options(ctx: StepContext) -> dict[str, Any]:
-    return ctx.config.split.model_dump(include={"voxel_size", "min_voxels", "concave_weight", "concave_angle", "concave_margin"})  # the voxel graph
 
 
 def _split_info(st: ObjectSteps) -> dict[str, Any]:
@@ -157,22 +142,18 @@ class Split(Operation):
 
     def __call__(self, ctx: StepContext, st: ObjectSteps) -> None:
         sp = ctx.config.split
-        graph_options = _graph_options(ctx)
-        common = {"max_ncut": sp.max_ncut, "own_cover": sp.own_cover, "settle_band": sp.settle_band, "rng": ctx.config.seed}
         masks = ctx.masks if sp.own_fraction is not None else None
-        st.labels, info = split_objects(
-            st.labels, ctx.points, ctx.cameras, **graph_options, **common, masks=masks, own_fraction=sp.own_fraction, num_objects=st.top
-        )
+        st.labels, info = split_objects(st.labels, ctx.points, ctx.cameras, sp, masks=masks, num_objects=st.top, rng=ctx.config.seed)
         st.lineage.record("split", st.labels)
         fine_size = sp.fine_voxel_size if sp.fine_voxel_size is not None and sp.fine_voxel_size < sp.voxel_size else None
         info["fine_voxel_size"] = fine_size
         if fine_size is not None:  # the finer grid, parts of the same area; a cut stands only where the masks own its parts
-            fine_options = {**graph_options, "voxel_size": fine_size, "min_voxels": round(sp.min_voxels * (sp.voxel_size / fine_size) ** 2)}
-            st.labels, fine = split_objects(
-                st.labels, ctx.points, ctx.cameras, **fine_options, **common, masks=ctx.masks, own_fraction=sp.fine_own_fraction, num_objects=info["num_objects"]
+            fine = {"voxel_size": fine_size, "min_voxels": round(sp.min_voxels * (sp.voxel_size / fine_size) ** 2), "own_fraction": sp.fine_own_fraction}
+            st.labels, got = split_objects(
+                st.labels, ctx.points, ctx.cameras, sp.model_copy(update=fine), masks=ctx.masks, num_objects=info["num_objects"], rng=ctx.config.seed
             )
-            info["fine_objects"], info["fine_first_new"], info["num_objects"] = fine["objects"], fine["first_new"], fine["num_objects"]
-            info["settled"] += fine["settled"]
+            info["fine_objects"], info["fine_first_new"], info["num_objects"] = got["objects"], got["first_new"], got["num_objects"]
+            info["settled"] += got["settled"]
             st.lineage.record("split_fine", st.labels)
         if info["num_objects"] > st.top:
             st.changed, st.settled = True, False
@@ -191,7 +172,7 @@ class Merge(Operation):
         info["merges"], info["merge_mapping"] = [], None
         if sp.merge_ncut is None:
             return
-        st.labels, merged = merge_objects(st.labels, ctx.points, ctx.cameras, min_ncut=sp.merge_ncut, **_graph_options(ctx), num_objects=info["num_objects"], rng=ctx.config.seed)
+        st.labels, merged = merge_objects(st.labels, ctx.points, ctx.cameras, sp, num_objects=info["num_objects"], rng=ctx.config.seed)
         info["merges"] = merged["merges"]
         st.lineage.record("merge", st.labels, evidence=_pairs(merged["merges"], "ncut"), evidence_name="ncut")
         if merged["merges"]:

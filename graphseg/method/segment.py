@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import Config, CriterionSpec
+from ..config import Config, CriterionSpec, ObjectConfig
 from ..graphs import CorrespondenceGraph, Evidence, coarsen, node_point_sets
 from ..graphs.contract import canonical_cluster
 from ..graphs.signed import run_contractor
@@ -307,19 +307,19 @@ def confirming_labels(
     return out, ids
 
 
+#: At most this many points of an object per view enter :func:`apply_min_support`'s confirmation test (evenly strided).
+CONFIRM_SAMPLE = 2000
+
+
 def apply_min_support(
     obj: np.ndarray,
     labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray],
-    min_views: int,
-    min_points: int,
+    options: ObjectConfig | None = None,
     *,
     cameras: Sequence[tuple[Any, Any]] | None = None,
     foreground: Sequence[np.ndarray] | None = None,
-    min_confirm: int = 0,
     mask_view: np.ndarray | None = None,
-    merge: bool = False,
-    sample: int = 2000,
 ) -> tuple[np.ndarray, list[np.ndarray], dict[str, Any]]:
     """Objects below the minimum support become background; the rest are renumbered ``1..K``.
 
@@ -342,23 +342,21 @@ def apply_min_support(
     labels : list of int ``[H, W]``
         The painted object ids per view.
     points : list of float ``[H, W, 3]``
-    min_views, min_points : int
-        Views and valid points an object needs (see
-        :class:`graphseg.config.ObjectConfig`); ``min_views`` is capped at the
-        number of views.
+    options : graphseg.config.ObjectConfig, optional
+        The ``objects`` section (default: its defaults). Read here:
+        ``min_views`` (capped at the number of views) and
+        ``min_point_fraction`` (times one view's pixels: the valid points an
+        object needs), ``confirm_fraction`` (the same: the valid points an
+        object needs before other views may confirm it) and ``merge_seen``
+        (let a confirmed one-view object join the object the confirming views
+        see there).
     cameras : list of (K, cam_to_world), optional, keyword-only
     foreground : list of bool ``[H, W]``, optional, keyword-only
-    min_confirm : int, keyword-only
-        Valid points an object needs before other views may confirm it.
     mask_view : int64 ``[M]``, optional, keyword-only
         The view of every mask. With it (and ``cameras``), a dropped fragment
         that continues a kept object across its border in the image
         (:func:`fragment_neighbours`) is given to that object instead of the
         background: a piece the segmenter cut off an object stays with it.
-    merge : bool, keyword-only
-        Let a confirmed one-view object join the object the confirming views see there.
-    sample : int, keyword-only
-        At most this many points per view enter the confirmation test (evenly strided).
 
     Returns
     -------
@@ -378,12 +376,17 @@ def apply_min_support(
     --------
     >>> lab = [np.array([[1, 1, 2, 3]]), np.array([[1, 0, 0, 3]])]
     >>> pts = [np.zeros((1, 4, 3)), np.zeros((1, 4, 3))]
-    >>> new, out, info = apply_min_support(np.array([1, 2, 3, 1, 3]), lab, pts, 2, 0)
+    >>> from graphseg.config import ObjectConfig
+    >>> new, out, info = apply_min_support(np.array([1, 2, 3, 1, 3]), lab, pts, ObjectConfig(min_views=2, min_point_fraction=0))
     >>> new.tolist(), out[0].tolist(), info["dropped"]
     ([1, 0, 2, 1, 2], [[1, 1, 0, 2]], 1)
     """
+    opt = options if options is not None else ObjectConfig()
+    pixels = int(np.asarray(labels[0]).size) if len(labels) else 0
+    min_points, min_confirm = int(np.ceil(opt.min_point_fraction * pixels)), int(np.ceil(opt.confirm_fraction * pixels))
+    merge, sample = opt.merge_seen, CONFIRM_SAMPLE
     num = int(obj.max()) if obj.size else 0
-    need_views = min(int(min_views), len(labels))
+    need_views = min(int(opt.min_views), len(labels))
     views, count = object_support(labels, points, num)
     seen = views.copy()
     confirmed = 0

@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import SplitConfig
 from ..graphs import combine_keys, group_by_key
 from .masks import close_id_gaps, rename_objects
 
@@ -471,18 +472,10 @@ def split_objects(
     labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray],
     cameras: Sequence[tuple[Any, Any]],
+    options: SplitConfig | None = None,
     *,
-    voxel_size: float = 0.006,
-    max_ncut: float = 0.012,
-    min_voxels: int = 200,
-    concave_weight: float = 0.1,
-    concave_angle: float = 10.0,
-    concave_margin: float = 0.05,
     masks: Sequence[np.ndarray] | None = None,
-    own_fraction: float | None = None,
-    own_cover: float = 0.5,
     num_objects: int | None = None,
-    settle_band: int = 0,
     rng: Any = None,
 ) -> tuple[list[np.ndarray], dict[str, Any]]:
     """Split every object whose fused 3D points fall into parts joined by a cheap cut.
@@ -496,32 +489,28 @@ def split_objects(
     cameras : list of ``(K, cam_to_world [4, 4])``
         Only the camera centres are read (to orient the normals); a view whose
         ``cam_to_world`` is None takes no part (its pixels keep their labels).
-    voxel_size : float
-        Voxel edge (metres); neighbours are linked up to 3 voxels apart.
-    max_ncut : float
-        A part is cut in two while its best normalized cut (:func:`normalized_cut`)
-        is below this.
-    min_voxels : int
-        Every part keeps at least this many voxels.
-    concave_weight, concave_angle, concave_margin : float
-        Links across concave creases (:func:`convexity_graph`).
-    masks : list of int ``[H, W]``, optional
+    options : graphseg.config.SplitConfig, optional
+        The ``split`` section (default: its defaults). Read here:
+        ``voxel_size`` (voxel edge in metres; neighbours are linked up to 3
+        voxels apart), ``max_ncut`` (a part is cut in two while its best
+        normalized cut, :func:`normalized_cut`, is below this), ``min_voxels``
+        (every part keeps at least this many voxels), ``concave_weight``,
+        ``concave_angle``, ``concave_margin`` (links across concave creases,
+        :func:`convexity_graph`), ``own_fraction`` and ``own_cover`` (see
+        ``masks``; ``own_fraction`` None: every cut stands) and
+        ``settle_band`` (after the cuts, the voxels of two touching parts
+        within this many links of their border are divided again by a minimum
+        cut of the link weights, :func:`settle_parts`, before the ``masks``
+        guard; 0 keeps the cuts' borders).
+    masks : list of int ``[H, W]``, optional, keyword-only
         The 2D masks per view (an id per mask, 0 = none). When given, a part
         stands only if masks of its own (each with at least ``own_fraction``
         of its pixels in the part) cover at least ``own_cover`` of the part's
         pixels: a cut that the views' segmenter did not draw (a duck's neck)
         is undone, the part joining the neighbour it has the strongest links to.
-    own_fraction, own_cover : float
-        See ``masks``. ``own_fraction`` None (the default, as
-        :class:`~graphseg.config.SplitConfig`): every cut stands.
-    num_objects : int, optional
+    num_objects : int, optional, keyword-only
         The largest object id in use (default: the largest in ``labels``); new
         parts are numbered after it.
-    settle_band : int
-        After the cuts, the voxels of two touching parts within this many
-        links of their border are divided again by a minimum cut of the link
-        weights (:func:`settle_parts`), before the ``masks`` guard; 0
-        (default) keeps the cuts' borders.
     rng : None, int or numpy.random.Generator, keyword-only
         Start vectors of the eigen-solver.
 
@@ -546,6 +535,9 @@ def split_objects(
     n = len(labels)
     if not (len(points) == len(cameras) == n):
         raise ValueError(f"expected labels, points and cameras for the same views (got {n}, {len(points)}, {len(cameras)})")
+    sp = options if options is not None else SplitConfig()
+    voxel_size, min_voxels, max_ncut, settle_band = sp.voxel_size, sp.min_voxels, sp.max_ncut, sp.settle_band
+    own_fraction, own_cover = sp.own_fraction, sp.own_cover
     if voxel_size <= 0 or min_voxels < 1 or max_ncut < 0 or settle_band < 0:
         raise ValueError(
             f"expected voxel_size > 0, min_voxels >= 1, max_ncut >= 0 and settle_band >= 0 (got {voxel_size}, {min_voxels}, {max_ncut}, {settle_band})"
@@ -554,7 +546,7 @@ def split_objects(
     top = max(int(max((int(lab.max()) for lab in out if lab.size), default=0)), int(num_objects or 0))
     first_new = top + 1
     gen = np.random.default_rng(rng)
-    crease = {"concave_angle": concave_angle, "concave_margin": concave_margin, "concave_weight": concave_weight}
+    crease = sp.model_dump(include={"concave_angle", "concave_margin", "concave_weight"})
     entries: list[dict[str, Any]] = []
     settled = 0
     got = _labelled_points(out, points, cameras, masks)
@@ -625,13 +617,8 @@ def merge_objects(
     labels: Sequence[np.ndarray],
     points: Sequence[np.ndarray],
     cameras: Sequence[tuple[Any, Any]],
+    options: SplitConfig | None = None,
     *,
-    voxel_size: float = 0.006,
-    min_ncut: float = 0.022,
-    min_voxels: int = 200,
-    concave_weight: float = 0.1,
-    concave_angle: float = 10.0,
-    concave_margin: float = 0.05,
     num_objects: int | None = None,
     rng: Any = None,
 ) -> tuple[list[np.ndarray], dict[str, Any]]:
@@ -659,12 +646,14 @@ def merge_objects(
     cameras : list of ``(K, cam_to_world [4, 4])``
         Only the camera centres are read; a view whose ``cam_to_world`` is None
         takes no part in the measurement (its labels are still renamed).
-    voxel_size, min_voxels, concave_weight, concave_angle, concave_margin
-        As in :func:`split_objects`.
-    min_ncut : float
-        Join when the cheapest cut found in the union costs at least this
-        (``inf``: never join).
-    num_objects : int, optional
+    options : graphseg.config.SplitConfig, optional
+        The ``split`` section (default: its defaults). Read here: the voxel
+        graph's ``voxel_size``, ``min_voxels``, ``concave_weight``,
+        ``concave_angle`` and ``concave_margin`` (as in
+        :func:`split_objects`), and ``merge_ncut``, the ``min_ncut`` above:
+        join when the cheapest cut found in the union costs at least this
+        (None: never join).
+    num_objects : int, optional, keyword-only
         The largest object id in use (default: the largest in ``labels``).
     rng : None, int or numpy.random.Generator, keyword-only
         Start vectors of the eigen-solver.
@@ -696,6 +685,7 @@ def merge_objects(
     by side stay apart:
 
     >>> import numpy as np
+    >>> from graphseg.config import SplitConfig
     >>> def dome(cx, r=0.05, step=0.003):
     ...     g = np.arange(-r, r + 1e-9, step)
     ...     x, y = np.meshgrid(g, g)
@@ -704,12 +694,12 @@ def merge_objects(
     >>> cam = (np.eye(3), np.array([[1.0, 0, 0, 0.05], [0, 1, 0, 0], [0, 0, 1, 0.8], [0, 0, 0, 1]]))
     >>> one = dome(0.0)
     >>> halves = np.where(one[:, 1] < 0, 1, 2).astype(np.int32)[None]
-    >>> out, info = merge_objects([halves], [one[None]], [cam], min_voxels=100, rng=0)
+    >>> out, info = merge_objects([halves], [one[None]], [cam], SplitConfig(min_voxels=100), rng=0)
     >>> np.unique(out[0]).tolist(), [m["ids"] for m in info["merges"]]
     ([1], [[1, 2]])
     >>> two = np.r_[dome(0.0), dome(0.1)]
     >>> sides = np.where(two[:, 0] < 0.05, 1, 2).astype(np.int32)[None]
-    >>> out, info = merge_objects([sides], [two[None]], [cam], min_voxels=100, rng=0)
+    >>> out, info = merge_objects([sides], [two[None]], [cam], SplitConfig(min_voxels=100), rng=0)
     >>> np.unique(out[0]).tolist(), info["merges"]
     ([1, 2], [])
     """
@@ -718,6 +708,9 @@ def merge_objects(
     n = len(labels)
     if not (len(points) == len(cameras) == n):
         raise ValueError(f"expected labels, points and cameras for the same views (got {n}, {len(points)}, {len(cameras)})")
+    sp = options if options is not None else SplitConfig()
+    voxel_size, min_voxels = sp.voxel_size, sp.min_voxels
+    min_ncut = np.inf if sp.merge_ncut is None else sp.merge_ncut
     if voxel_size <= 0 or min_voxels < 1 or min_ncut < 0:
         raise ValueError(f"expected voxel_size > 0, min_voxels >= 1 and min_ncut >= 0 (got {voxel_size}, {min_voxels}, {min_ncut})")
     top = max(int(max((int(np.max(lab)) for lab in labels if np.size(lab)), default=0)), int(num_objects or 0))
@@ -726,7 +719,7 @@ def merge_objects(
     got = _labelled_points(labels, points, cameras) if top > 1 and np.isfinite(min_ncut) else None
     if got is not None and got[3].shape[0]:
         gen = np.random.default_rng(rng)
-        crease = {"concave_angle": concave_angle, "concave_margin": concave_margin, "concave_weight": concave_weight}
+        crease = sp.model_dump(include={"concave_angle", "concave_margin", "concave_weight"})
         view, _, _, P, obj, _, centre = got
         # which objects touch: voxels of one grid, each owned by the object with most of its points
         centres, inverse, _ = voxelize(P, voxel_size)

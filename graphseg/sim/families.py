@@ -194,22 +194,22 @@ def make_scene(spec: SceneSpec, **overrides: Any) -> Scene:
     ``views``, ``fov_deg``): the same settled objects, table and light, seen
     by other cameras.
     """
-    from .pybullet_scenes import synthesize
+    from .pybullet_scenes import CameraRig, synthesize
 
     options: dict[str, Any] = {
         "seed": spec.seed,
         "objects": spec.objects,
         "views": spec.views,
         "size": spec.size,
-        "arc_deg": spec.arc_deg,
-        "height": spec.height,
         "layout": spec.layout,
         "object_set": spec.object_set,
         "table_texture": spec.table_texture,
         "lighting": spec.lighting,
-        "fov_deg": spec.fov_deg,
     }
-    s = synthesize(**{**options, **overrides})
+    rig = {"arc_deg": spec.arc_deg, "height": spec.height, "fov_deg": spec.fov_deg}
+    rig.update({k: v for k, v in overrides.items() if k in CameraRig.__dataclass_fields__})
+    options.update({k: v for k, v in overrides.items() if k not in CameraRig.__dataclass_fields__})
+    s = synthesize(**options, cameras=CameraRig(**rig))
     return Scene(s.views, dict(s.objects), spec.name, {**s.meta, "family": spec.to_dict()})
 
 

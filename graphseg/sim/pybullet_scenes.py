@@ -55,6 +55,7 @@ from .boxes import look_at
 
 __all__ = [
     "synthesize",
+    "CameraRig",
     "render_view",
     "ASSETS",
     "Asset",
@@ -554,17 +555,31 @@ def _load_texture(p: Any, cid: int, image: np.ndarray, folder: str, name: str) -
     return tid
 
 
+@dataclass(frozen=True)
+class CameraRig:
+    """Where :func:`synthesize` puts its cameras.
+
+    ``arc_deg >= 360`` spaces the views evenly on a full ring; a smaller arc
+    spans ``arc_deg`` degrees from the first view to the last. Each camera is
+    ``radius`` (+-8 %) from the table's centre horizontally and ``height``
+    (+-10 %) above its top, looking at the centre with ``jitter`` (m) of noise;
+    ``fov_deg`` is its vertical field of view.
+    """
+
+    arc_deg: float = 360.0
+    radius: float = 0.5
+    height: float = 0.42
+    fov_deg: float = 50.0
+    jitter: float = 0.03
+
+
 def synthesize(
     seed: int = 0,
     objects: int = 6,
     views: int = 8,
     size: tuple[int, int] = (640, 480),
     *,
-    radius: float = 0.5,
-    height: float = 0.42,
-    fov_deg: float = 50.0,
-    jitter: float = 0.03,
-    arc_deg: float = 360.0,
+    cameras: CameraRig | None = None,
     settle_steps: int = 480,
     layout: str = "spread",
     object_set: str = "bundled",
@@ -578,10 +593,7 @@ def synthesize(
     against each other; ``"stacked"`` drops them in piles of two or three on
     the same spot, so they land on top of each other.
 
-    Cameras: ``arc_deg >= 360`` spaces the views evenly on a full ring; a smaller
-    arc spans ``arc_deg`` degrees from the first view to the last. Each camera is
-    ``radius`` (+-8 %) from the table's centre horizontally and ``height`` (+-10 %)
-    above its top, looking at the centre with ``jitter`` (m) of noise.
+    ``cameras``: where the views are (:class:`CameraRig`; None: its defaults).
 
     ``object_set``: ``"bundled"`` (default: :data:`ASSETS`), ``"procedural"``
     (:func:`draw_shape`: textured boxes, cylinders and spheres of 3-12 cm) or
@@ -610,6 +622,8 @@ def synthesize(
         object set, table texture or lighting.
     """
     _check_args(seed, objects, views, size)
+    rig = cameras if cameras is not None else CameraRig()
+    radius, height, fov_deg, jitter, arc_deg = rig.radius, rig.height, rig.fov_deg, rig.jitter, rig.arc_deg
     if layout not in ("spread", "touching", "stacked"):
         raise ValueError(f"unknown layout {layout!r}; choose 'spread', 'touching' or 'stacked'")
     if object_set not in OBJECT_SETS:

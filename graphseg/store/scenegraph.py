@@ -28,6 +28,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -231,6 +232,45 @@ def _name_of(spec: Any, default: str) -> str:
     if spec is None:
         return default
     return spec if isinstance(spec, str) else str(getattr(spec, "name", None) or type(spec).__name__)
+
+
+@dataclass
+class _Add:
+    """What one :meth:`SceneGraph.add` carries from step to step."""
+
+    progress: bool = False
+    timings: dict[str, float] = field(default_factory=dict)
+    gt_names: dict[int, str] = field(default_factory=dict)
+    inputs: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    entries: dict[str, Any] = field(default_factory=dict)
+    keys: dict[str, str] = field(default_factory=dict)
+    lifter_name: str = ""
+    cfg: Any = None
+    backends: dict[str, Any] = field(default_factory=dict)
+    old_order: list[str] = field(default_factory=list)
+    old_data: dict[str, ViewData] = field(default_factory=dict)
+    lifted: list[View] = field(default_factory=list)
+    replaced: list[str] = field(default_factory=list)
+    relifted: list[View] = field(default_factory=list)
+    prepared: dict[str, ViewData] = field(default_factory=dict)
+    next_uid: int = 0
+    all_data: list[ViewData] = field(default_factory=list)
+    old_pairs: dict[tuple[int, int], Any] = field(default_factory=dict)
+    new_pairs: dict[tuple[int, int], Matches] = field(default_factory=dict)
+    active: list[tuple[int, int]] = field(default_factory=list)
+    matched: list[tuple[str, str]] = field(default_factory=list)
+    num_matches: int = 0
+    evidence: Mapping[tuple[int, int], Matches] = field(default_factory=dict)
+    previous: Snapshot | None = None
+    up: Any = None
+
+
+@contextmanager
+def _timed(job: _Add, step: str) -> Iterator[None]:
+    t = time.perf_counter()
+    yield
+    job.timings[step] = time.perf_counter() - t
 
 
 class SceneGraph:
@@ -513,12 +553,35 @@ class SceneGraph:
             return self._add(views, segmenter=segmenter, matcher=matcher, lifter=lifter, features=features, masks=masks, select=select or {}, progress=progress)
 
     def _add(self, items: Any, *, segmenter: Any, matcher: Any, lifter: Any, features: Any, masks: Sequence[Any] | None, select: dict[str, Any], progress: bool) -> AddReport:
-        from ..geometry import scene_scale, select_pairs
-        from ..pipeline import backends_for_lifter, lift, progress_bar, resolve_backends
-
+        """The add's steps in order: incoming views, lift, segment, match, graph, ids, commit."""
         t0 = time.perf_counter()
-        timings: dict[str, float] = {}
-        new_views, gt_names, inputs = _as_views(items, **select)
+        job = _Add(progress=progress)
+        new_views, masks = self._incoming(job, items, masks, select)
+        if not new_views:
+            return AddReport(self.generation, [], job.skipped, [], [], len(self.object_ids), warnings=[f"already in the store: {', '.join(job.skipped)}"])
+        with _timed(job, "lift"):
+            self._lift(job, new_views, segmenter=segmenter, matcher=matcher, lifter=lifter)
+        with _timed(job, "segment"):
+            self._segment(job, masks, features)
+        with _timed(job, "match"):
+            self._match(job)
+        with _timed(job, "graph"):
+            self._update_graph(job)
+        with _timed(job, "ids"):
+            res, mask_pid, object_ids, next_pid, events = self._stable_ids(job)
+        with _timed(job, "write"):
+            gen = self._commit(job, res, mask_pid, object_ids, next_pid, events)
+        res.info["store"] = {"path": str(self.root), "generation": gen, "events": events}
+        self._result = res
+        job.timings["total"] = time.perf_counter() - t0
+        warnings = [*res.info.get("warnings", [])]
+        if job.skipped:
+            warnings.append(f"already in the store: {', '.join(job.skipped)}")
+        return AddReport(gen, [v.name for v in job.lifted], job.skipped, job.replaced, events, res.num_objects, job.matched, job.up.recomputed, job.timings, warnings)
+
+    def _incoming(self, job: _Add, items: Any, masks: Sequence[Any] | None, select: dict[str, Any]) -> tuple[list[View], list[Any] | None]:
+        """The views to add, checked, without those already stored with the same content."""
+        new_views, job.gt_names, job.inputs = _as_views(items, **select)
         if masks is not None and len(masks) != len(new_views):
             raise SceneError(f"expected one mask set per view ({len(new_views)}) (got {len(masks)})", where=str(self.root), field="masks")
         if not new_views:
@@ -529,27 +592,25 @@ class SceneGraph:
             raise SceneError(f"view name {dup[0]!r} appears twice among the views to add", where=str(self.root), field="views")
         for v in new_views:
             v.validate()
-        cfg = self.config
-        state = self._state
-        entries = {str(e["name"]): e for e in state["views"]}
-        skipped: list[str] = []
+        job.entries = {str(e["name"]): e for e in self._state["views"]}
         keep_new: list[int] = []
         for i, v in enumerate(new_views):
-            e = entries.get(v.name)
+            e = job.entries.get(v.name)
             if e is None:
                 keep_new.append(i)
             elif e.get("key") == _content_key(v):
-                skipped.append(v.name)
+                job.skipped.append(v.name)
             else:
                 raise SceneError("a view of this name with other content is already in the store; rename it", where=v.name, field="name")
         new_views = [new_views[i] for i in keep_new]
-        masks = [masks[i] for i in keep_new] if masks is not None else None
-        if not new_views:
-            return AddReport(self.generation, [], skipped, [], [], len(self.object_ids), warnings=[f"already in the store: {', '.join(skipped)}"])
-        keys = {v.name: _content_key(v) for v in new_views}
+        job.keys = {v.name: _content_key(v) for v in new_views}
+        return new_views, ([masks[i] for i in keep_new] if masks is not None else None)
 
-        # -- lift: only the new views for a per-view lifter, every view for a scene-level one
-        t = time.perf_counter()
+    def _lift(self, job: _Add, new_views: list[View], *, segmenter: Any, matcher: Any, lifter: Any) -> None:
+        """Lift only the new views for a per-view lifter, every view for a scene-level one."""
+        from ..pipeline import backends_for_lifter, lift, resolve_backends
+
+        cfg = self.config
         sub = Scene(new_views, name=self.name)
         if lifter is None and sub.has_points:
             lifter_name = "given"
@@ -558,163 +619,148 @@ class SceneGraph:
             if lifter is None and default == "rgbd" and not sub.has_depth:
                 default = "sfm"
             lifter_name = _name_of(lifter, default)
-        old_lifter = state.get("lifter")
+        old_lifter = self._state.get("lifter")
         if old_lifter is not None and old_lifter != lifter_name and not (old_lifter in PER_VIEW_LIFTERS and lifter_name in PER_VIEW_LIFTERS):
             raise SceneError(f"the store's views were lifted by {old_lifter!r}; views lifted by {lifter_name!r} cannot join them", where=str(self.root), field="lifter")
         need_lifter = lifter_name != "given"
         backends = resolve_backends(cfg, segmenter=segmenter, matcher=matcher, lifter=(lifter or (lifter_name if need_lifter else None)), need_lifter=need_lifter)
-        old_order = self.view_names
-        old_data = {n: self.view_data(n) for n in old_order}
-        replaced: list[str] = []
+        job.old_order = self.view_names
+        job.old_data = {n: self.view_data(n) for n in job.old_order}
+        job.lifter_name = old_lifter if lifter_name == "given" and old_lifter else lifter_name
         if lifter_name == "given":
-            lifted = new_views
+            job.lifted = new_views
         elif lifter_name in PER_VIEW_LIFTERS:
-            lifted = lift(sub, backends["lifter"], cfg).views
+            job.lifted = lift(sub, backends["lifter"], cfg).views
         else:  # scene-level lifter: every view is lifted again, together
-            raw = [self.view_data(n, full=True).view.replace(points=None, confidence=None) for n in old_order] + new_views
-            full = lift(Scene(raw, name=self.name), backends["lifter"], cfg)
-            got = {v.name: v for v in full.views}
+            raw = [self.view_data(n, full=True).view.replace(points=None, confidence=None) for n in job.old_order] + new_views
+            got = {v.name: v for v in lift(Scene(raw, name=self.name), backends["lifter"], cfg).views}
             missing = [v.name for v in raw if v.name not in got]
             if missing:
                 raise SceneError(f"the lifter could not place view(s) {', '.join(missing)}; nothing was added", where=str(self.root), field="lifter")
-            for n in old_order:
-                if not np.array_equal(np.asarray(got[n].points), np.asarray(old_data[n].view.points), equal_nan=True):
-                    replaced.append(n)
-            lifted = [got[v.name] for v in new_views]
-        timings["lift"] = time.perf_counter() - t
-        cfg_l = cfg.for_lifter(lifter_name)
-        backends = backends_for_lifter(backends, cfg, lifter_name, segmenter=segmenter, matcher=matcher)
+            job.replaced = [n for n in job.old_order if not np.array_equal(np.asarray(got[n].points), np.asarray(job.old_data[n].view.points), equal_nan=True)]
+            job.relifted = [got[n] for n in job.replaced]
+            job.lifted = [got[v.name] for v in new_views]
+        job.cfg = cfg.for_lifter(lifter_name)
+        job.backends = backends_for_lifter(backends, cfg, lifter_name, segmenter=segmenter, matcher=matcher)
 
-        # -- segment and prepare the new (and replaced) views
-        t = time.perf_counter()
-        todo = list(lifted)
-        todo_masks: list[Any] = list(masks) if masks is not None else [None] * len(lifted)
-        if replaced:
-            todo += [got[n] for n in replaced]
-            todo_masks += [None] * len(replaced)
+    def _segment(self, job: _Add, masks: list[Any] | None, features: Any) -> None:
+        """Segment and prepare the new (and replaced) views, each with a new mask uid."""
+        from ..pipeline import progress_bar, resolve_backend
+
+        todo = [*job.lifted, *job.relifted]
+        todo_masks: list[Any] = [*(masks if masks is not None else [None] * len(job.lifted)), *([None] * len(job.relifted))]
         feats = None
-        if "features" in cfg_l.requires():
-            from ..pipeline import resolve_backend
+        if "features" in job.cfg.requires():
+            feats = resolve_backend("features", features or job.cfg.backends.features, job.cfg)
+        job.next_uid = int(self._state["next_uid"])
+        for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", job.progress):
+            mk = m if m is not None else job.backends["segmenter"](v)
+            job.prepared[v.name] = prepare_view(v, mk, job.cfg, uid=job.next_uid, features=None if feats is None else np.asarray(feats(v)))
+            job.next_uid += 1
+        order = job.old_order + [v.name for v in job.lifted]
+        data = [job.prepared.get(n, job.old_data.get(n)) for n in order]
+        job.all_data = [d for d in data if d is not None]
+        assert len(job.all_data) == len(data)
 
-            feats = resolve_backend("features", features or cfg_l.backends.features, cfg_l)
-        next_uid = int(state["next_uid"])
-        prepared: dict[str, ViewData] = {}
-        for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", progress):
-            mk = m if m is not None else backends["segmenter"](v)
-            prepared[v.name] = prepare_view(v, mk, cfg_l, uid=next_uid, features=None if feats is None else np.asarray(feats(v)))
-            next_uid += 1
-        timings["segment"] = time.perf_counter() - t
+    def _match(self, job: _Add) -> None:
+        """The pair rule over all views; match the pairs not matched yet; the evidence, read lazily."""
+        from ..geometry import scene_scale, select_pairs
+        from ..pipeline import progress_bar
 
-        # -- the pair rule over all views; match the pairs not matched yet
-        t = time.perf_counter()
-        order = old_order + [v.name for v in lifted]
-        data = [prepared.get(n, old_data.get(n)) for n in order]
-        assert all(d is not None for d in data)
-        all_data: list[ViewData] = [d for d in data if d is not None]
-        uid_of = {d.name: d.uid for d in all_data}
-        old_pairs = {(int(p["a"]), int(p["b"])): p for p in state["pairs"] if int(p["a"]) in {d.uid for d in all_data} and int(p["b"]) in {d.uid for d in all_data}}
-        by_set = {frozenset(k): k for k in old_pairs}
-        evidence: Mapping[tuple[int, int], Matches] = {}
-        num_matches = 0
-        active: list[tuple[int, int]] = []
-        matched: list[tuple[str, str]] = []
-        new_pairs: dict[tuple[int, int], Matches] = {}
-        if "matches" in cfg_l.requires():
-            poses = [d.view.cam_to_world for d in all_data]
-            scale = scene_scale([d.view.points for d in all_data], poses) if all(p is not None for p in poses) else None
-            pc = cfg_l.pairs
-            idx_pairs = select_pairs(poses, mode=pc.mode, max_rotation=pc.max_rotation, max_translation=pc.max_translation, translation_scale=pc.translation_scale, scale=scale, auto_max_views=pc.auto_max_views)
-            todo_pairs = []
-            for i, j in idx_pairs:
-                a, b = (i, j) if all_data[i].name <= all_data[j].name else (j, i)
-                key = (all_data[a].uid, all_data[b].uid)
-                if frozenset(key) in by_set:
-                    key = by_set[frozenset(key)]
-                else:
-                    todo_pairs.append((a, b, key))
-                active.append(key)
-            for a, b, key in progress_bar(todo_pairs, "match", progress):
-                new_pairs[key] = backends["matcher"](all_data[a].view, all_data[b].view)
-                matched.append((all_data[a].name, all_data[b].name))
-            index = {d.uid: i for i, d in enumerate(all_data)}
-            pair_index: dict[tuple[int, int], tuple[tuple[int, int], bool]] = {}
-            for key in active:
-                i, j = index[key[0]], index[key[1]]
-                pair_index[(i, j) if i < j else (j, i)] = (key, i > j)
-                num_matches += len(new_pairs[key]) if key in new_pairs else int(old_pairs[key].get("n", -1))
+        all_data = job.all_data
+        uids = {d.uid for d in all_data}
+        job.old_pairs = {(int(p["a"]), int(p["b"])): p for p in self._state["pairs"] if int(p["a"]) in uids and int(p["b"]) in uids}
+        if "matches" not in job.cfg.requires():
+            return
+        by_set = {frozenset(k): k for k in job.old_pairs}
+        poses = [d.view.cam_to_world for d in all_data]
+        scale = scene_scale([d.view.points for d in all_data], poses) if all(p is not None for p in poses) else None
+        pc = job.cfg.pairs
+        idx_pairs = select_pairs(poses, mode=pc.mode, max_rotation=pc.max_rotation, max_translation=pc.max_translation, translation_scale=pc.translation_scale, scale=scale, auto_max_views=pc.auto_max_views)
+        todo_pairs = []
+        for i, j in idx_pairs:
+            a, b = (i, j) if all_data[i].name <= all_data[j].name else (j, i)
+            key = (all_data[a].uid, all_data[b].uid)
+            if frozenset(key) in by_set:
+                key = by_set[frozenset(key)]
+            else:
+                todo_pairs.append((a, b, key))
+            job.active.append(key)
+        for a, b, key in progress_bar(todo_pairs, "match", job.progress):
+            job.new_pairs[key] = job.backends["matcher"](all_data[a].view, all_data[b].view)
+            job.matched.append((all_data[a].name, all_data[b].name))
+        index = {d.uid: i for i, d in enumerate(all_data)}
+        pair_index: dict[tuple[int, int], tuple[tuple[int, int], bool]] = {}
+        for key in job.active:
+            i, j = index[key[0]], index[key[1]]
+            pair_index[(i, j) if i < j else (j, i)] = (key, i > j)
+            job.num_matches += len(job.new_pairs[key]) if key in job.new_pairs else int(job.old_pairs[key].get("n", -1))
+        new_pairs, old_pairs = job.new_pairs, job.old_pairs
 
-            def fetch(key: tuple[int, int]) -> Matches:
-                return new_pairs[key] if key in new_pairs else self._pair(old_pairs[key])
+        def fetch(key: tuple[int, int]) -> Matches:
+            return new_pairs[key] if key in new_pairs else self._pair(old_pairs[key])
 
-            evidence = _LazyMatches(pair_index, fetch)
-        timings["match"] = time.perf_counter() - t
+        job.evidence = _LazyMatches(pair_index, fetch)
 
-        # -- the graph: reuse what did not change
-        t = time.perf_counter()
-        previous = self._snapshot()
-        was_active = {(int(p["a"]), int(p["b"])) for p in state["pairs"] if p.get("active")}
-        changed = was_active ^ set(active)
-        known_count = num_matches if all(int(old_pairs[k].get("n", -1)) >= 0 for k in active if k not in new_pairs) else None
-        up = update(all_data, evidence, cfg_l, previous=previous, changed_pairs=changed, name=self.name, num_matches=known_count)
-        timings["graph"] = time.perf_counter() - t
+    def _update_graph(self, job: _Add) -> None:
+        """The graph, reusing what did not change (:func:`~graphseg.store.incremental.update`)."""
+        job.previous = self._snapshot()
+        was_active = {(int(p["a"]), int(p["b"])) for p in self._state["pairs"] if p.get("active")}
+        changed = was_active ^ set(job.active)
+        known = all(int(job.old_pairs[k].get("n", -1)) >= 0 for k in job.active if k not in job.new_pairs)
+        job.up = update(job.all_data, job.evidence, job.cfg, previous=job.previous, changed_pairs=changed, name=self.name, num_matches=job.num_matches if known else None)
 
-        # -- stable ids and what changed
-        t = time.perf_counter()
-        res = up.result
-        old_uid = np.asarray(state["mask_uid"], np.int64)
-        old_pid = np.asarray(state["mask_pid"], np.int64)
-        pid, events, next_pid = assign_ids(old_uid, old_pid, up.mask_uid, res.mask_object, int(state["next_pid"]), res.num_objects)
+    def _stable_ids(self, job: _Add) -> tuple[Result, np.ndarray, list[int], int, list[dict[str, Any]]]:
+        """Stable object ids, the result renumbered to them, and the merge and split events explained."""
+        res = job.up.result
+        old_uid = np.asarray(self._state["mask_uid"], np.int64)
+        old_pid = np.asarray(self._state["mask_pid"], np.int64)
+        pid, events, next_pid = assign_ids(old_uid, old_pid, job.up.mask_uid, res.mask_object, int(self._state["next_pid"]), res.num_objects)
         rank = np.zeros(pid.size, np.int64)
         order_k = np.argsort(pid[1:], kind="stable") + 1
         rank[order_k] = np.arange(1, pid.size)
         object_ids = [int(x) for x in pid[order_k]]
         res = renumber_result(res, rank, object_ids)
-        mask_pid = pid[np.asarray(up.result.mask_object, np.int64)]  # before renumbering: compact ids of update()
-        names_now = [d.name for d in all_data]
-        self._explain(events, res, up, mask_pid, old_uid, old_pid, previous, names_now)
-        timings["ids"] = time.perf_counter() - t
+        mask_pid = pid[np.asarray(job.up.result.mask_object, np.int64)]  # before renumbering: compact ids of update()
+        self._explain(events, res, job.up, mask_pid, old_uid, old_pid, job.previous, [d.name for d in job.all_data])
+        return res, mask_pid, object_ids, next_pid, events
 
-        # -- write the new files, then switch the pointer (the commit)
-        t = time.perf_counter()
+    def _commit(self, job: _Add, res: Result, mask_pid: np.ndarray, object_ids: list[int], next_pid: int, events: list[dict[str, Any]]) -> int:
+        """Write the new files, then switch the pointer (the commit); collect what no generation needs."""
+        state = self._state
         gen = self.generation + 1
-        view_entries = []
         with written(self.root) as files:
-            for d in all_data:
-                if d.name in prepared:
-                    rel = write_view(self.root, d)
-                    files.append(rel)
-                    view_entries.append({"name": d.name, "uid": d.uid, "file": rel, "key": keys.get(d.name) or _content_key(d.view)})
+            view_entries = []
+            for d in job.all_data:
+                if d.name in job.prepared:
+                    files.append(write_view(self.root, d))
+                    view_entries.append({"name": d.name, "uid": d.uid, "file": files[-1], "key": job.keys.get(d.name) or _content_key(d.view)})
                 else:
-                    view_entries.append(entries[d.name])
-            pair_entries = []
-            kept = {u for u in uid_of.values()}
-            for key, p in old_pairs.items():
-                if key[0] in kept and key[1] in kept:
-                    pair_entries.append({**p, "active": key in set(active)})
-            if new_pairs:
-                rel = write_pairs(self.root, gen, new_pairs)
-                files.append(rel)
-                for key, m in new_pairs.items():
-                    pair_entries.append({"a": key[0], "b": key[1], "file": rel, "key": pair_key(*key), "n": len(m), "active": True})
+                    view_entries.append(job.entries[d.name])
+            active = set(job.active)
+            kept = {d.uid for d in job.all_data}
+            pair_entries = [{**p, "active": key in active} for key, p in job.old_pairs.items() if key[0] in kept and key[1] in kept]
+            if job.new_pairs:
+                files.append(write_pairs(self.root, gen, job.new_pairs))
+                pair_entries += [{"a": k[0], "b": k[1], "file": files[-1], "key": pair_key(*k), "n": len(m), "active": True} for k, m in job.new_pairs.items()]
             result_rel = f"generations/{gen:06d}.result.npz"
             write_file(self.root / result_rel, res.save)
             files.append(result_rel)
-            objects = {**(state.get("objects") or {}), **{str(k): v for k, v in gt_names.items()}}
-            entry = {"generation": gen, "added": [v.name for v in lifted], "replaced": replaced, "matched": [list(p) for p in matched], "events": events}
+            entry = {"generation": gen, "added": [v.name for v in job.lifted], "replaced": job.replaced, "matched": [list(p) for p in job.matched], "events": events}
             new_state = {
                 **state,
                 "generation": gen,
                 "views": view_entries,
                 "pairs": pair_entries,
-                "mask_uid": up.mask_uid.tolist(),
+                "mask_uid": job.up.mask_uid.tolist(),
                 "mask_pid": mask_pid.tolist(),
                 "object_ids": object_ids,
-                "next_uid": next_uid,
+                "next_uid": job.next_uid,
                 "next_pid": next_pid,
-                "lifter": old_lifter if lifter_name == "given" and old_lifter else lifter_name,
-                "objects": objects,
+                "lifter": job.lifter_name,
+                "objects": {**(state.get("objects") or {}), **{str(k): v for k, v in job.gt_names.items()}},
                 "history": [*state["history"], entry],
-                "inputs": inputs,
+                "inputs": job.inputs,
             }
             state_rel = f"generations/{gen:06d}.state.json"
             write_json(self.root / state_rel, new_state)
@@ -727,18 +773,11 @@ class SceneGraph:
         if old_pointer.get("result"):
             keep.add(str(old_pointer["result"]))
         collect_garbage(self.root, keep)
-        timings["write"] = time.perf_counter() - t
-        for d in all_data:  # kept for the next add, without what it does not read
+        for d in job.all_data:  # kept for the next add, without what it does not read
             self._views[d.uid] = replace(d, masks=None, view=d.view.replace(depth=None, instances=None))
-        if new_pairs:
-            self._pairs[f"pairs/M{gen:06d}.npz"] = {pair_key(*key): m for key, m in new_pairs.items()}
-        res.info["store"] = {"path": str(self.root), "generation": gen, "events": events}
-        self._result = res
-        timings["total"] = time.perf_counter() - t0
-        warnings = [*res.info.get("warnings", [])]
-        if skipped:
-            warnings.append(f"already in the store: {', '.join(skipped)}")
-        return AddReport(gen, [v.name for v in lifted], skipped, replaced, events, res.num_objects, matched, up.recomputed, timings, warnings)
+        if job.new_pairs:
+            self._pairs[f"pairs/M{gen:06d}.npz"] = {pair_key(*key): m for key, m in job.new_pairs.items()}
+        return gen
 
     @staticmethod
     def _references(state: dict[str, Any]) -> set[str]:

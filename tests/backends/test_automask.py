@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from graphseg.backends.segmenters.automask import (
+    AutomaskOptions,
     box_iou,
     box_nms,
     crop_boxes,
@@ -138,7 +139,7 @@ def _square_predictor(h, w, half=5, iou=1.0, k=1, scale=10.0):
 
 def test_generate_masks_shapes_and_batching():
     predict, calls = _square_predictor(40, 40)
-    props = generate_masks(predict, (40, 40), points_per_side=4, points_per_batch=5)
+    props = generate_masks(predict, (40, 40), AutomaskOptions(points_per_side=4, points_per_batch=5))
     assert calls == [5, 5, 5, 1]
     assert props.masks.shape == (16, 40, 40) and props.masks.dtype == bool
     assert props.boxes.shape == (16, 4) and props.points.shape == (16, 2)
@@ -150,17 +151,17 @@ def test_generate_masks_shapes_and_batching():
 def test_generate_masks_nms_removes_duplicates():
     # k=2 identical candidates per prompt: one survives each
     predict, _ = _square_predictor(40, 40, k=2)
-    assert len(generate_masks(predict, (40, 40), points_per_side=2).masks) == 4
+    assert len(generate_masks(predict, (40, 40), AutomaskOptions(points_per_side=2)).masks) == 4
 
 
 def test_generate_masks_iou_and_stability_filters():
     predict, _ = _square_predictor(40, 40, iou=0.5)
-    assert len(generate_masks(predict, (40, 40), points_per_side=2).masks) == 0
-    assert len(generate_masks(predict, (40, 40), points_per_side=2, pred_iou_thresh=0.4).masks) == 4
+    assert len(generate_masks(predict, (40, 40), AutomaskOptions(points_per_side=2)).masks) == 0
+    assert len(generate_masks(predict, (40, 40), AutomaskOptions(points_per_side=2, pred_iou_thresh=0.4)).masks) == 4
     # logits +-0.5: thresholded at +1 the mask is empty -> stability 0
     weak, _ = _square_predictor(40, 40, scale=0.5)
-    assert len(generate_masks(weak, (40, 40), points_per_side=2).masks) == 0
-    assert len(generate_masks(weak, (40, 40), points_per_side=2, stability_score_offset=0.25).masks) == 4
+    assert len(generate_masks(weak, (40, 40), AutomaskOptions(points_per_side=2)).masks) == 0
+    assert len(generate_masks(weak, (40, 40), AutomaskOptions(points_per_side=2, stability_score_offset=0.25)).masks) == 4
 
 
 def test_generate_masks_resizes_low_res_logits():
@@ -170,7 +171,7 @@ def test_generate_masks_resizes_low_res_logits():
         lg[:, :, 5:15, 5:15] = 10.0
         return lg, np.ones((len(points), 1), np.float32)
 
-    props = generate_masks(predict, (40, 40), points_per_side=1)
+    props = generate_masks(predict, (40, 40), AutomaskOptions(points_per_side=1))
     assert props.masks.shape == (1, 40, 40)
     assert props.boxes[0].tolist() == [10, 10, 30, 30]
 
@@ -183,16 +184,16 @@ def test_generate_masks_cleanup_removes_specks():
         lg[:, :, 10, 10] = -10.0  # 1-pixel hole
         return lg, np.ones((len(points), 1), np.float32)
 
-    raw = generate_masks(predict, (30, 30), points_per_side=1)
+    raw = generate_masks(predict, (30, 30), AutomaskOptions(points_per_side=1))
     assert raw.masks[0].sum() == 18 * 18 - 1 + 1
-    clean = generate_masks(predict, (30, 30), points_per_side=1, min_mask_region_area=5)
+    clean = generate_masks(predict, (30, 30), AutomaskOptions(points_per_side=1, min_mask_region_area=5))
     assert clean.masks[0].sum() == 18 * 18 and clean.boxes[0].tolist() == [2, 2, 20, 20]
 
 
 def test_generate_masks_crops_need_predict_crop_and_drop_edge_masks():
     predict, _ = _square_predictor(64, 64, half=3)
     with pytest.raises(ValueError, match="predict_crop"):
-        generate_masks(predict, (64, 64), points_per_side=2, crop_n_layers=1)
+        generate_masks(predict, (64, 64), AutomaskOptions(points_per_side=2, crop_n_layers=1))
     seen = []
 
     def predict_crop(box):
@@ -200,7 +201,7 @@ def test_generate_masks_crops_need_predict_crop_and_drop_edge_masks():
         h, w = box[3] - box[1], box[2] - box[0]
         return _square_predictor(h, w, half=3)[0]
 
-    props = generate_masks(predict, (64, 64), points_per_side=2, crop_n_layers=1, predict_crop=predict_crop)
+    props = generate_masks(predict, (64, 64), AutomaskOptions(points_per_side=2, crop_n_layers=1), predict_crop=predict_crop)
     assert len(seen) == 4
     assert props.masks.shape[1:] == (64, 64)
     # layer 0: four 7x7 squares around (16, 16) ...; layer 1 (crops of 43 px at 0 and 21):
@@ -216,4 +217,4 @@ def test_generate_masks_rejects_bad_predictor_output():
         return np.zeros((len(points), 4, 4)), np.zeros(len(points))
 
     with pytest.raises(ValueError, match=r"logits \[B, K, h, w\]"):
-        generate_masks(bad, (4, 4), points_per_side=1)
+        generate_masks(bad, (4, 4), AutomaskOptions(points_per_side=1))

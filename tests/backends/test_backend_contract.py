@@ -143,9 +143,13 @@ PURE = [
 
 
 @pytest.mark.parametrize("owner, fn, names", PURE, ids=[f.__name__ for _, f, _ in PURE])
-def test_pure_functions_take_the_options_as_required_keywords(owner, fn, names):
+def test_pure_functions_take_the_options_as_required_keywords_or_as_one_object(owner, fn, names):
     params = inspect.signature(fn).parameters
-    assert set(names) <= set(params) and set(names) <= set(owner.Options.model_fields)
+    assert set(names) <= set(owner.Options.model_fields)
+    if "options" in params:  # the options object itself (the Options, or what it gives): none of its fields beside it
+        assert not set(names) & set(params), f"{fn.__name__} takes options and some of their fields"
+        return
+    assert set(names) <= set(params)
     written_twice = [f"{p}={params[p].default!r}" for p in names if params[p].default is not inspect.Parameter.empty]
     assert not written_twice, f"{fn.__name__}: defaults also in {owner.__name__}.Options: {written_twice}"
 

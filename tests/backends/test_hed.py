@@ -109,14 +109,14 @@ def test_edge_ridge_splits_a_flat_region():
     from graphseg.config import BackgroundConfig
 
     background = BackgroundConfig(plane=False, max_distance=None)
-    kw = GeometricOptions(background=background, color_threshold=None, color_regions=None, min_area=4, fill_radius=2).geometric_kwargs()
-    whole = geometric_segments(pts, **kw)
-    cut = geometric_segments(pts, edges=edges, **kw)
+    kw = GeometricOptions(background=background, color_threshold=None, color_regions=None, min_area=4, fill_radius=2)
+    whole = geometric_segments(pts, options=kw)
+    cut = geometric_segments(pts, options=kw, edges=edges)
     assert np.unique(whole[whole > 0]).size == 1
     left, right = np.unique(cut[:, :9]), np.unique(cut[:, 12:])
     assert left.size == 1 and right.size == 1 and left[0] != right[0] and 0 not in (left[0], right[0])
     with pytest.raises(ValueError, match=r"expected edges of shape \[20, 20\]"):
-        geometric_segments(pts, edges=edges[:5], **kw)
+        geometric_segments(pts, options=kw, edges=edges[:5])
 
 
 def test_geometric_segmenter_uses_the_edge_model(tmp_path):

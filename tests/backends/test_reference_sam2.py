@@ -349,7 +349,7 @@ def test_pixel_conventions_predictor(weights, reference):
 
 def test_pixel_conventions_automatic_masks(weights, reference):
     """Grid prompts, full image and crops: each mask is a disc at its prompt; same masks as the reference."""
-    from graphseg.backends.segmenters.automask import generate_masks, point_grid
+    from graphseg.backends.segmenters.automask import AutomaskOptions, generate_masks, point_grid
     from graphseg.backends.segmenters.sam import _crop_predictor, sam2_predictor
 
     model, seg = weights
@@ -357,7 +357,7 @@ def test_pixel_conventions_automatic_masks(weights, reference):
     opts = dict(AMG, points_per_side=3, crop_n_points_downscale_factor=1, mask_threshold=0.0, stability_score_offset=1.0, stability_score_thresh=0.5, pred_iou_thresh=0.5)
     ours = _DiscModel(seg.model)
     make = lambda im: sam2_predictor(ours, im)  # noqa: E731
-    props = generate_masks(make(rgb), (H, W), predict_crop=_crop_predictor(make, rgb), **opts)
+    props = generate_masks(make(rgb), (H, W), AutomaskOptions(**opts), predict_crop=_crop_predictor(make, rgb))
     _check_encoder_input(ours.inputs[0])  # the full image is encoded first
     _check_discs_at_prompts(props.masks, props.points)
     # discs from prompts of the full image's 3 x 3 grid and from prompts in crops (crop pixels, shifted back)

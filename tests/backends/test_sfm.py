@@ -43,7 +43,7 @@ def _rotation_errors(est, ref):
 
 
 def test_run_sfm_recovers_poses_without_intrinsics(arc_scene):
-    rec = run_sfm([v.rgb for v in arc_scene.views], **SfmLifter.Options().run_sfm_kwargs())
+    rec = run_sfm([v.rgb for v in arc_scene.views], options=SfmLifter.Options().run_sfm_kwargs())
     assert rec.registered.tolist() == [True] * 6
     assert rec.points.shape[1] == 3 and len(rec.observations) == 6
     err, _ = _rotation_errors(rec.cam_to_world, [v.cam_to_world for v in arc_scene.views])
@@ -59,7 +59,7 @@ def test_extraction_threads_do_not_change_the_reconstruction(arc_scene):
     images = [v.rgb for v in arc_scene.views]
     kw = SfmLifter.Options().run_sfm_kwargs()
     assert kw["num_threads"] == 2
-    one, two = run_sfm(images, **{**kw, "num_threads": 1}), run_sfm(images, **kw)
+    one, two = run_sfm(images, options={**kw, "num_threads": 1}), run_sfm(images, options=kw)
     assert one.registered.tolist() == two.registered.tolist() == [True] * 6
     for a, b in zip(one.cam_to_world + one.K, two.cam_to_world + two.K):
         np.testing.assert_array_equal(a, b)
@@ -134,13 +134,13 @@ def test_ransac_seed_reaches_the_matching(monkeypatch):
     images = [np.full((60, 80, 3), 128, np.uint8)] * 3  # nothing registers; only the options matter
     kw = SfmLifter.Options().run_sfm_kwargs()
     assert kw["ransac_seed"] is None and kw["num_threads"] == 2
-    sfm.run_sfm(images, **kw)
+    sfm.run_sfm(images, options=kw)
     assert seen and set(seen) == {(1, -1)}
     seen.clear()
-    sfm.run_sfm(images, **SfmLifter.Options(ransac_seed=7).run_sfm_kwargs())
+    sfm.run_sfm(images, options=SfmLifter.Options(ransac_seed=7).run_sfm_kwargs())
     assert seen and set(seen) == {(2, 7)}
     with pytest.raises(ValueError, match="ransac_seed"):
-        sfm.run_sfm(images, **{**kw, "ransac_seed": -1})
+        sfm.run_sfm(images, options={**kw, "ransac_seed": -1})
     from pydantic import ValidationError
 
     with pytest.raises(ValidationError):
@@ -166,7 +166,7 @@ def test_images_enter_the_database_in_name_order_before_extraction(monkeypatch):
     monkeypatch.setattr(pycolmap, "extract_features", spy)
     rng = np.random.default_rng(0)
     images = [rng.integers(0, 255, (120, 160, 3), dtype=np.uint8)] + [np.full((120, 160, 3), 128, np.uint8)] * 2
-    sfm.run_sfm(images, **{**SfmLifter.Options().run_sfm_kwargs(), "num_threads": 2})  # nothing registers; only the order matters
+    sfm.run_sfm(images, options={**SfmLifter.Options().run_sfm_kwargs(), "num_threads": 2})  # nothing registers; only the order matters
     assert seen and all(ids == [(1, "0000.png"), (2, "0001.png"), (3, "0002.png")] and threads == 2 for ids, threads in seen)
 
 
@@ -174,10 +174,10 @@ def test_checkered_table_registers_with_pooled_descriptors():
     """Issue 20: on a checkered table plain SIFT matched the wrong squares (4 of 5 views
     registered, relative rotations 10-19 degrees off); descriptors with domain-size pooling
     register all five within 2 degrees."""
-    from graphseg.sim.pybullet_scenes import synthesize
+    from graphseg.sim.pybullet_scenes import CameraRig, synthesize
 
-    scene = synthesize(seed=2, objects=5, views=5, size=(320, 240), arc_deg=60, table_texture="checker", settle_steps=240)
-    rec = run_sfm([v.rgb for v in scene.views], **SfmLifter.Options().run_sfm_kwargs())
+    scene = synthesize(seed=2, objects=5, views=5, size=(320, 240), cameras=CameraRig(arc_deg=60), table_texture="checker", settle_steps=240)
+    rec = run_sfm([v.rgb for v in scene.views], options=SfmLifter.Options().run_sfm_kwargs())
     assert rec.registered.all()
     est, ref = rec.cam_to_world, [v.cam_to_world for v in scene.views]
     for a in range(5):
@@ -205,14 +205,14 @@ def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled,
     models = {True: None if pooled is None else _FakeModel(pooled), False: _FakeModel(plain)}
     seen = []
 
-    def fake_map(*args, **kwargs):
-        seen.append(args[-1])
-        return models[args[-1]]
+    def fake_map(*args, pooling, **kwargs):
+        seen.append(pooling)
+        return models[pooling]
 
     monkeypatch.setattr(sfm, "_map", fake_map)
     monkeypatch.setattr(sfm, "_convert", lambda rec, names: rec)
     images = [np.zeros((8, 8, 3), np.uint8)] * 5
-    assert sfm.run_sfm(images, **sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs()) is models[expected == "pooled"]
+    assert sfm.run_sfm(images, options=sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs()) is models[expected == "pooled"]
     assert seen == calls
 
 
@@ -246,7 +246,7 @@ def _fake_draws(monkeypatch, draws, held):
     queue = list(draws)
     given = {}
 
-    def fake_map(pycolmap, root, names, K, known, *args, ransac_seed=None, tag="", hold_focal=False, **kwargs):
+    def fake_map(pycolmap, root, names, K, run, *, ransac_seed=None, tag="", hold_focal=False, **kwargs):
         if tag not in given:  # a draw: pooled SIFT, then plain SIFT when views are missing (same model here)
             seen.append((ransac_seed, tag.lstrip("-") or "first"))
             given[tag] = held if hold_focal else queue.pop(0)
@@ -282,7 +282,7 @@ def test_suspect_focal_length_redraws_then_holds_the_prior(monkeypatch, draws, h
 
     seen = _fake_draws(monkeypatch, draws, held)
     images = [np.zeros((60, 80, 3), np.uint8)] * 5
-    rec = sfm.run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())
+    rec = sfm.run_sfm(images, options=SfmLifter.Options().run_sfm_kwargs())
     assert [t for _, t in seen] == tags
     assert [d for d, t in seen if t.startswith("r")] == list(range(1, len(tags) - 1 if "prior" in tags else len(tags)))
     assert rec.K[0][0, 0] == focal and rec.registered.sum() == views
@@ -304,7 +304,7 @@ def test_no_redraw_when_off_and_a_kept_suspect_model_is_never_silent(monkeypatch
     from graphseg.backends.lifters import sfm
 
     seen = _fake_draws(monkeypatch, [(3, 200.0)], None)
-    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, **SfmLifter.Options(redraws=0).run_sfm_kwargs())
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, options=SfmLifter.Options(redraws=0).run_sfm_kwargs())
     assert [t for _, t in seen] == ["first", "prior"]
     assert rec.info["focal_check"]["kept"] == "first" and rec.info["focal_check"]["prior_views"] == 0
     assert focal_check_warning(rec.info["focal_check"]) == (
@@ -319,14 +319,14 @@ def test_warning_lines_name_what_each_redraw_gave(monkeypatch):
     from graphseg.backends.lifters import sfm
 
     _fake_draws(monkeypatch, [(5, 200.0), (4, 57.0), None], (5, 96.0))
-    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, **SfmLifter.Options().run_sfm_kwargs())
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, options=SfmLifter.Options().run_sfm_kwargs())
     assert focal_check_warning(rec.info["focal_check"]) == (
         "structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 "
         "views, no model); the focal length was held at 1.2 x the larger image side (45.2 degrees); give the intrinsics (K) if "
         "they are known"
     )
     _fake_draws(monkeypatch, [(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0))
-    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, **SfmLifter.Options().run_sfm_kwargs())
+    rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, options=SfmLifter.Options().run_sfm_kwargs())
     assert rec.info["focal_check"]["prior_views"] == 4 and rec.info["focal_check"]["kept"] == "first"
     assert focal_check_warning(rec.info["focal_check"]).endswith(
         "(redraws: 126.9, 18.2); no redraw gave a typical or agreeing focal length and the focal length held at the prior "
@@ -345,7 +345,7 @@ def test_redraw_seeds_wrap_below_colmaps_limit(monkeypatch):
     from graphseg.backends.lifters import sfm
 
     seen = _fake_draws(monkeypatch, [(3, 200.0), (3, 20.0), (3, 57.0)], None)
-    sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, **SfmLifter.Options(ransac_seed=2**31 - 2).run_sfm_kwargs())
+    sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 3, options=SfmLifter.Options(ransac_seed=2**31 - 2).run_sfm_kwargs())
     assert [d for d, _ in seen] == [2**31 - 2, 0, 1]
 
 
@@ -355,10 +355,10 @@ def test_focal_check_needs_no_redraw_with_known_intrinsics_or_when_off(monkeypat
     images = [np.zeros((60, 80, 3), np.uint8)] * 3
     K = np.array([[200.0, 0, 40], [0, 200, 30], [0, 0, 1]])
     seen = _fake_draws(monkeypatch, [(3, 200.0)], None)  # 22.6 degrees: suspect
-    assert "focal_check" not in sfm.run_sfm(images, [K] * 3, **SfmLifter.Options().run_sfm_kwargs()).info  # a telephoto K is the user's
+    assert "focal_check" not in sfm.run_sfm(images, [K] * 3, options=SfmLifter.Options().run_sfm_kwargs()).info  # a telephoto K is the user's
     assert [t for _, t in seen] == ["first"]
     seen = _fake_draws(monkeypatch, [(3, 200.0)], None)
-    assert "focal_check" not in sfm.run_sfm(images, **SfmLifter.Options(fov_range=None).run_sfm_kwargs()).info
+    assert "focal_check" not in sfm.run_sfm(images, options=SfmLifter.Options(fov_range=None).run_sfm_kwargs()).info
     assert [t for _, t in seen] == ["first"]
 
 
@@ -393,10 +393,10 @@ def test_an_unusual_focal_length_two_draws_agree_on_is_kept(arc_scene):
     so the first model is kept (a long lens is not a failure)."""
     photos = [v.rgb for v in arc_scene.views]
     kw = SfmLifter.Options(fov_range=(80.0, 110.0)).run_sfm_kwargs()
-    rec = run_sfm(photos, **kw)
+    rec = run_sfm(photos, options=kw)
     check = rec.info["focal_check"]
     assert check["kept"] == "first" and check["confirmed"] == 1 and len(check["fov"]) == 2
-    plain = run_sfm(photos, **{**kw, "fov_range": None})
+    plain = run_sfm(photos, options={**kw, "fov_range": None})
     for a, b in zip(rec.cam_to_world + rec.K, plain.cam_to_world + plain.K):
         np.testing.assert_array_equal(a, b)
 
@@ -405,7 +405,7 @@ def test_run_sfm_with_known_poses_triangulates_with_the_cameras_held(arc_scene):
     views = arc_scene.views
     poses = [v.cam_to_world for v in views]
     kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
-    rec = run_sfm([v.rgb for v in views], [v.K for v in views], poses=poses, **kw)
+    rec = run_sfm([v.rgb for v in views], [v.K for v in views], poses=poses, options=kw)
     assert rec.registered.tolist() == [True] * 6 and rec.info["poses"] == "given"
     for T, g, K, v in zip(rec.cam_to_world, poses, rec.K, views):
         assert np.array_equal(T, g) and T is not g  # exactly the given poses, copied
@@ -447,7 +447,7 @@ def test_known_poses_are_validated(arc_scene, which):
     kw = {k: v for k, v in SfmLifter.Options().run_sfm_kwargs().items() if k not in ("fov_range", "redraws", "focal_starts")}
     match = {"no K": "K of every view", "NaN pose": "view 2: expected a finite K and pose", "inf K": "view 4: expected a finite K and pose"}.get(which, "pose for each of the 6 views")
     with pytest.raises(ValueError, match=match):
-        run_sfm(images, Ks, poses=poses, **kw)
+        run_sfm(images, Ks, poses=poses, options=kw)
 
 
 def test_known_poses_two_views_and_a_camera_of_each_own(arc_scene):
@@ -459,7 +459,7 @@ def test_known_poses_two_views_and_a_camera_of_each_own(arc_scene):
     K1 = views[1].K.copy()
     K1[0, 2] += 9
     K1[1, 2] -= 5
-    rec = run_sfm([views[0].rgb, rgb1], [views[0].K, K1], poses=[v.cam_to_world for v in views], **kw)
+    rec = run_sfm([views[0].rgb, rgb1], [views[0].K, K1], poses=[v.cam_to_world for v in views], options=kw)
     assert len(rec.points) > 50 and np.array_equal(rec.K[1], K1) and np.array_equal(rec.K[0], views[0].K)
     for (xy, pid), T, K in zip(rec.observations, rec.cam_to_world, rec.K):
         cam = (rec.points[pid] - T[:3, 3]) @ T[:3, :3]
@@ -591,14 +591,14 @@ def test_focal_length_starts_on_real_photos(arc_scene):
     every start, and without starts (the default) nothing is recorded."""
     photos = [v.rgb for v in arc_scene.views]
     kw = SfmLifter.Options(focal_starts=FOCAL_STARTS).run_sfm_kwargs()
-    rec = run_sfm(photos, **kw)
+    rec = run_sfm(photos, options=kw)
     st = rec.info["focal_starts"]
     assert st["fov"] == [45.24, 60.0, 70.0] and st["views"] == [6, 6, 6]
     assert st["kept"] == 0  # every start reaches the same focal length: the prior's model stays
     assert all(abs(f - 63.7) < 2 for f in st["result"])  # the true 63.7 degrees, from every start
     assert abs(np.degrees(2 * np.arctan(160 / rec.K[0][0, 0])) - st["result"][st["kept"]]) < 0.01
-    assert "focal_starts" not in run_sfm(photos, **SfmLifter.Options().run_sfm_kwargs()).info  # off by default
-    known = run_sfm(photos, [v.K for v in arc_scene.views], **kw)
+    assert "focal_starts" not in run_sfm(photos, options=SfmLifter.Options().run_sfm_kwargs()).info  # off by default
+    known = run_sfm(photos, [v.K for v in arc_scene.views], options=kw)
     assert "focal_starts" not in known.info  # intrinsics given: nothing to start
 
 

@@ -6,19 +6,26 @@ from graphseg.graphs.adjacency import SmoothAdjacency
 from graphseg.graphs.repulsion import DepthRepulsion
 
 
-# The pure functions take every option as a required keyword; the tests leave out what they do
-# not vary, which then comes from the criterion's Options (the one home of the defaults).
+# The pure functions take the criterion's Options (the one home of the defaults); the tests name
+# only what they vary. model_construct skips the Options' own checks, so that the functions' are tested.
+def _split(options_class, kw, extra=("rgb", "normals", "drop_unknown")):
+    given = {k: v for k, v in kw.items() if k not in extra}
+    return options_class.model_construct(**{**options_class().model_dump(), **given}), {k: v for k, v in kw.items() if k in extra}
+
+
 def smooth_adjacency_links(*args, **kw):
-    return adjacency.smooth_adjacency_links(*args, **{**SmoothAdjacency.Options().model_dump(), **kw})
+    opts, rest = _split(SmoothAdjacency.Options, kw)
+    return adjacency.smooth_adjacency_links(*args, opts, **rest)
 
 
 def depth_jump_cannot_links(*args, **kw):
-    return repulsion.depth_jump_cannot_links(*args, **{**DepthRepulsion.Options().model_dump(), **kw})
+    opts, rest = _split(DepthRepulsion.Options, kw)
+    return repulsion.depth_jump_cannot_links(*args, opts, **rest)
 
 
 def boundary_separation(*args, **kw):
-    d = DepthRepulsion.Options().model_dump()
-    return repulsion.boundary_separation(*args, **{**{k: d[k] for k in ("jump", "concave", "reach", "normal_step")}, **kw})
+    opts, rest = _split(DepthRepulsion.Options, kw)
+    return repulsion.boundary_separation(*args, opts, **rest)
 
 
 def grid(h, w, z):

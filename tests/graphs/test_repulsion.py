@@ -4,17 +4,23 @@ import pytest
 from graphseg.graphs import CorrespondenceGraph, Evidence, edge_adders, repulsion
 from graphseg.graphs.repulsion import DepthRepulsion
 
-# The pure functions take every option as a required keyword; the tests leave out what they do
-# not vary, which then comes from DepthRepulsion.Options (the one home of the defaults).
+# The pure functions take DepthRepulsion.Options (the one home of the defaults); the tests name only
+# what they vary. model_construct skips the Options' own checks, so that the functions' are tested.
 _DEFAULTS = DepthRepulsion.Options().model_dump()
 
 
+def _options(kw):
+    return DepthRepulsion.Options.model_construct(**{**_DEFAULTS, **{k: v for k, v in kw.items() if k != "normals"}}), {k: v for k, v in kw.items() if k == "normals"}
+
+
 def depth_jump_cannot_links(*args, **kw):
-    return repulsion.depth_jump_cannot_links(*args, **{**_DEFAULTS, **kw})
+    opts, rest = _options(kw)
+    return repulsion.depth_jump_cannot_links(*args, opts, **rest)
 
 
 def boundary_separation(*args, **kw):
-    return repulsion.boundary_separation(*args, **{**{k: _DEFAULTS[k] for k in ("jump", "concave", "reach", "normal_step")}, **kw})
+    opts, rest = _options(kw)
+    return repulsion.boundary_separation(*args, opts, **rest)
 
 
 def boundary_jumps(*args, **kw):

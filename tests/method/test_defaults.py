@@ -1,5 +1,6 @@
-"""One home per default (issue 53): a method function's keyword that is also a field of its config
-section has no default of its own, or the section's. ``Config()`` is the one default method."""
+"""One home per default (issue 53): a method function takes its config section itself (``options``,
+None meaning the section's defaults), or a keyword that is also a field of the section has no
+default of its own, or the section's. ``Config()`` is the one default method."""
 
 import importlib
 import inspect
@@ -11,7 +12,8 @@ from graphseg import config as C
 #: (module, function, section, function keyword -> section field where the names differ)
 CASES = [
     ("graphseg.method.split", "split_objects", C.SplitConfig, {}),
-    ("graphseg.method.split", "merge_objects", C.SplitConfig, {"min_ncut": "merge_ncut"}),
+    ("graphseg.method.split", "merge_objects", C.SplitConfig, {}),
+    ("graphseg.method.segment", "apply_min_support", C.ObjectConfig, {}),
     ("graphseg.method.join", "join_objects", C.SplitConfig, {"min_shared": "join_shared"}),
     ("graphseg.method.join", "join_by_masks", C.SplitConfig, {"min_cover": "mask_join", "max_color": "mask_join_color"}),
     ("graphseg.method.masks", "snap_to_masks", C.SplitConfig, {"share": "snap_share"}),
@@ -27,6 +29,11 @@ CASES = [
 @pytest.mark.parametrize(("module", "name", "section", "alias"), CASES, ids=[f"{c[1]}-{c[2].__name__}" for c in CASES])
 def test_a_function_keyword_has_the_sections_default_or_none(module, name, section, alias):
     fn = getattr(importlib.import_module(module), name)
+    params = inspect.signature(fn).parameters
+    if "options" in params:  # the section itself: no field of it is a keyword as well
+        assert params["options"].annotation in (f"{section.__name__} | None", section) and params["options"].default is None
+        assert not set(params) & set(section.model_fields), f"{name} takes {section.__name__} and some of its fields"
+        return
     checked = 0
     for param, p in inspect.signature(fn).parameters.items():
         field = alias.get(param, param)

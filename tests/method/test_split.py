@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.sparse import csr_matrix
 
-from graphseg.config import Config
+from graphseg.config import Config, SplitConfig
 from graphseg.method import segment
 from graphseg.method.masks import majority_objects
 from graphseg.method.split import (
@@ -155,15 +155,15 @@ def test_the_mask_guard_keeps_only_parts_that_masks_of_their_own_cover():
     lab = [np.ones((1, len(two)), np.int32)]
     own = np.where(np.arange(len(two)) < n, 1, 2)[None]  # one mask per dome
     across = np.ones((1, len(two)), np.int32)  # one mask over both
-    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[own], own_fraction=0.8, rng=0)
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], SplitConfig(own_fraction=0.8), masks=[own], rng=0)
     assert np.unique(out[0]).tolist() == [1, 2]
-    out, info = split_objects(lab, [two[None]], [(None, EYE)], masks=[across], own_fraction=0.8, rng=0)
+    out, info = split_objects(lab, [two[None]], [(None, EYE)], SplitConfig(own_fraction=0.8), masks=[across], rng=0)
     assert np.unique(out[0]).tolist() == [1] and info["objects"][0]["parts"] == 1
     idx = np.arange(len(two))
     half = np.where(idx < n // 3, 1, np.where(idx < n + n // 4, 3, 2))[None]  # mask 3 straddles: dome 0 is one third its own
-    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[half], own_fraction=0.8, own_cover=0.5, rng=0)
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], SplitConfig(own_fraction=0.8, own_cover=0.5), masks=[half], rng=0)
     assert np.unique(out[0]).tolist() == [1]
-    out, _ = split_objects(lab, [two[None]], [(None, EYE)], masks=[half], own_fraction=0.8, own_cover=0.3, rng=0)
+    out, _ = split_objects(lab, [two[None]], [(None, EYE)], SplitConfig(own_fraction=0.8, own_cover=0.3), masks=[half], rng=0)
     assert np.unique(out[0]).tolist() == [1, 2]
 
 
@@ -228,10 +228,10 @@ def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(mon
     matches = exact_matches(scene)
     calls = []
     real = seg_mod.split_objects
-    monkeypatch.setattr(seg_mod, "split_objects", lambda *a, **k: calls.append(k) or real(*a, **k))
+    monkeypatch.setattr(seg_mod, "split_objects", lambda *a, **k: calls.append((a[3], k)) or real(*a, **k))
     res = segment(scene, masks, matches, Config.preset("rgbd"))
-    assert [(k["voxel_size"], k["min_voxels"], k["masks"] is not None, k["own_fraction"]) for k in calls] == [(0.006, 200, False, None), (0.005, 288, True, 0.8)]
-    assert calls[1]["num_objects"] == 2 and [e["parts"] for e in res.info["split"]["fine_objects"]] == [1, 1]
+    assert [(o.voxel_size, o.min_voxels, k["masks"] is not None, o.own_fraction) for o, k in calls] == [(0.006, 200, False, None), (0.005, 288, True, 0.8)]
+    assert calls[1][1]["num_objects"] == 2 and [e["parts"] for e in res.info["split"]["fine_objects"]] == [1, 1]
     calls.clear()
     one = segment(scene, masks, matches, Config.preset("rgbd", split={"fine_voxel_size": None}))
     assert len(calls) == 1 and "fine_objects" not in one.info["split"]
@@ -241,7 +241,7 @@ def test_segment_splits_again_on_the_fine_grid_where_the_masks_own_the_parts(mon
 def test_a_zero_concave_weight_removes_the_links_and_still_splits():
     two = np.r_[dome(0.0), dome(0.1)]
     lab = [np.ones((1, len(two)), np.int32)]
-    out, info = split_objects(lab, [two[None]], [(None, EYE)], concave_weight=0.0, rng=0)
+    out, info = split_objects(lab, [two[None]], [(None, EYE)], SplitConfig(concave_weight=0.0), rng=0)
     assert np.unique(out[0]).tolist() == [1, 2]
     out, info = split_objects(lab, [two[None]], [(None, EYE)], num_objects=6, rng=0)  # ids in use beyond the labels' largest
     assert np.unique(out[0]).tolist() == [1, 7] and info["first_new"] == 7 and info["num_objects"] == 7
@@ -269,15 +269,15 @@ def test_merge_objects_joins_the_halves_of_one_dome_and_closes_the_id_gap():
     pts = np.r_[one, other]
     n = len(one)
     lab = np.where(np.arange(len(pts)) < n, np.where(pts[:, 1] < 0, 1, 3), 2).astype(np.int32)[None]  # dome 0 as objects 1 and 3
-    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_voxels=100, rng=0)
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], SplitConfig(min_voxels=100), rng=0)
     assert out[0].shape == lab.shape and out[0].dtype == lab.dtype
     assert [m["ids"] for m in info["merges"]] == [[1, 3]] and info["merges"][0]["ncut"] > 0.05  # a dome's halves: far above 0.022
     assert info["mapping"].tolist() == [0, 1, 2, 1] and info["num_objects"] == 2
     assert out[0][0, :n].tolist() == [1] * n and out[0][0, n:].tolist() == [2] * len(other)
     assert lab.max() == 3  # input untouched
-    again, _ = merge_objects([lab], [pts[None]], [(None, EYE)], min_voxels=100, rng=0)
+    again, _ = merge_objects([lab], [pts[None]], [(None, EYE)], SplitConfig(min_voxels=100), rng=0)
     assert np.array_equal(again[0], out[0])
-    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], min_ncut=np.inf, min_voxels=100, rng=0)  # never join
+    out, info = merge_objects([lab], [pts[None]], [(None, EYE)], SplitConfig(merge_ncut=None, min_voxels=100), rng=0)  # never join
     assert info["merges"] == [] and out[0].tolist() == lab.tolist() and out[0] is not lab
 
 
@@ -287,7 +287,7 @@ def test_merge_objects_joins_a_chain_of_pieces_in_order_and_renames_every_view()
     thirds = np.digitize(ang, [-np.pi / 3, np.pi / 3])  # three wedges of one dome
     lab = np.array([2, 5, 7])[thirds].astype(np.int64)[None]  # ids with gaps
     blind = np.full((1, 4), 7, np.int64)  # a view without a camera: not measured, still renamed
-    out, info = merge_objects([lab, blind], [one[None], np.zeros((1, 4, 3))], [(None, EYE), (None, None)], min_voxels=100, rng=0)
+    out, info = merge_objects([lab, blind], [one[None], np.zeros((1, 4, 3))], [(None, EYE), (None, None)], SplitConfig(min_voxels=100), rng=0)
     assert len(info["merges"]) == 2 and np.unique(out[0]).tolist() == [2]
     assert info["mapping"].tolist() == [0, 1, 2, 3, 4, 2, 5, 2] and info["num_objects"] == 5  # 6 (unused) moves down past the freed 5
     assert out[1].tolist() == [[2, 2, 2, 2]] and out[1].dtype == np.int64
@@ -296,7 +296,7 @@ def test_merge_objects_joins_a_chain_of_pieces_in_order_and_renames_every_view()
 def test_merge_objects_joins_one_surface_seen_under_two_ids():
     one = dome(0.0)
     views = [np.ones((1, len(one)), np.int32), np.full((1, len(one)), 2, np.int32)]  # the same points, another id in view 1
-    out, info = merge_objects(views, [one[None], one[None]], [(None, EYE)] * 2, min_voxels=100, rng=0)
+    out, info = merge_objects(views, [one[None], one[None]], [(None, EYE)] * 2, SplitConfig(min_voxels=100), rng=0)
     assert [m["ids"] for m in info["merges"]] == [[1, 2]] and [np.unique(o).tolist() for o in out] == [[1], [1]]
 
 
@@ -304,9 +304,9 @@ def test_merge_objects_keeps_two_touching_domes_apart():
     two = np.r_[dome(0.0), dome(0.1)]
     n = len(dome(0.0))
     lab = np.where(np.arange(len(two)) < n, 1, 2).astype(np.int32)[None]
-    out, info = merge_objects([lab], [two[None]], [(None, EYE)], min_voxels=100, rng=0)
+    out, info = merge_objects([lab], [two[None]], [(None, EYE)], SplitConfig(min_voxels=100), rng=0)
     assert info["merges"] == [] and out[0].tolist() == lab.tolist()
-    _, info = merge_objects([lab], [two[None]], [(None, EYE)], min_ncut=0.0, min_voxels=100, rng=0)  # join anyway, to read the cost
+    _, info = merge_objects([lab], [two[None]], [(None, EYE)], SplitConfig(merge_ncut=0.0, min_voxels=100), rng=0)  # join anyway, to read the cost
     assert info["merges"][0]["ncut"] < 0.012  # the crease between them: a cut the split would make
 
 
@@ -320,16 +320,16 @@ def test_merge_objects_edge_cases():
     out, info = merge_objects([np.array([[1, 2, 2, 0]], np.int32)], [np.full((1, 4, 3), np.nan)], [(None, EYE)])  # two ids, no points
     assert info["merges"] == [] and out[0].tolist() == [[1, 2, 2, 0]]
     small = np.where(one[:, 1] < -0.045, 2, 1).astype(np.int32)[None]  # object 2 has fewer than min_voxels voxels: left alone
-    assert merge_objects([small], [one[None]], [(None, EYE)], min_voxels=100, rng=0)[1]["merges"] == []
-    out, info = merge_objects([lab], [one[None]], [(None, EYE)], num_objects=4, min_voxels=100, rng=0)  # ids beyond the labels' largest move down too
+    assert merge_objects([small], [one[None]], [(None, EYE)], SplitConfig(min_voxels=100), rng=0)[1]["merges"] == []
+    out, info = merge_objects([lab], [one[None]], [(None, EYE)], SplitConfig(min_voxels=100), num_objects=4, rng=0)  # ids beyond the labels' largest move down too
     assert info["mapping"].tolist() == [0, 1, 1, 2, 3] and info["num_objects"] == 3
     neg = np.where(np.arange(len(one)) < 5, -1, lab[0]).astype(np.int32)[None]  # labels <= 0 are kept
-    out, _ = merge_objects([neg], [one[None]], [(None, EYE)], min_voxels=100, rng=0)
+    out, _ = merge_objects([neg], [one[None]], [(None, EYE)], SplitConfig(min_voxels=100), rng=0)
     assert out[0][0, :5].tolist() == [-1] * 5 and np.unique(out[0][0, 5:]).tolist() == [1]
     with pytest.raises(ValueError, match="same views"):
         merge_objects([lab], [], [])
     with pytest.raises(ValueError, match="min_ncut >= 0"):
-        merge_objects([lab], [one[None]], [(None, EYE)], min_ncut=-1.0)
+        merge_objects([lab], [one[None]], [(None, EYE)], SplitConfig().model_copy(update={"merge_ncut": -1.0}))  # past the config's own check
 
 
 def test_segment_joins_the_halves_of_a_box_that_no_match_connects():
@@ -550,13 +550,13 @@ def test_split_objects_settle_band_is_checked_and_reported():
     two = np.r_[dome(0.0), dome(0.1)]
     lab = np.ones((1, len(two)), np.int32)
     out0, info0 = split_objects([lab], [two[None]], [(None, EYE)], rng=0)
-    out, info = split_objects([lab], [two[None]], [(None, EYE)], settle_band=2, rng=0)
+    out, info = split_objects([lab], [two[None]], [(None, EYE)], SplitConfig(settle_band=2), rng=0)
     assert info0["settled"] == 0 and isinstance(info["settled"], int)
     n = len(dome(0.0))
     assert np.mean(out[0][0, :n] == 1) > 0.97 and np.mean(out[0][0, n:] == 2) > 0.97
     assert lab.max() == 1  # input untouched
     with pytest.raises(ValueError, match="settle_band >= 0"):
-        split_objects([lab], [two[None]], [(None, EYE)], settle_band=-1)
+        split_objects([lab], [two[None]], [(None, EYE)], SplitConfig().model_copy(update={"settle_band": -1}))  # past the config's own check
 
 
 def test_segment_draws_the_split_border_again_only_when_asked():

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -51,6 +52,7 @@ __all__ = [
     "SfmLifter",
     "SfmReconstruction",
     "run_sfm",
+    "SfmRun",
     "NOMINAL_DISTANCE",
     "CAMERA_MODELS",
     "not_registered_message",
@@ -239,27 +241,37 @@ def _verification_options(pycolmap: Any, ransac_seed: int | None) -> Any:
     return verify
 
 
+@dataclass(frozen=True)
+class SfmRun:
+    """The options :func:`run_sfm` reads; :meth:`SfmLifter.Options.run_sfm_kwargs` gives them (its defaults are the lifter's).
+
+    The fields are :func:`run_sfm`'s parameters of the same names.
+    """
+
+    peak_threshold: float
+    min_tri_angle: float
+    seed: int
+    camera_model: str
+    attempts: int = 3
+    num_threads: int = 1
+    ransac_seed: int | None = None
+    fov_range: tuple[float, float] | None = None
+    redraws: int = 0
+    focal_starts: tuple[float, ...] = ()
+
+
 def run_sfm(
     images: list[np.ndarray],
     K: list[np.ndarray] | None = None,
+    options: SfmRun | Mapping[str, Any] | None = None,
     *,
-    peak_threshold: float,
-    min_tri_angle: float,
-    seed: int,
-    attempts: int = 3,
-    camera_model: str,
-    num_threads: int = 1,
-    ransac_seed: int | None = None,
-    fov_range: tuple[float, float] | None = None,
-    redraws: int = 0,
-    focal_starts: tuple[float, ...] = (),
     poses: list[np.ndarray] | None = None,
 ) -> SfmReconstruction:
     """Incremental SfM (COLMAP) on uint8 RGB images ``[H, W, 3]`` of one size.
 
     ``peak_threshold``, ``min_tri_angle``, ``seed`` and ``camera_model`` are
     required; their defaults are those of :class:`SfmLifter.Options`
-    (``run_sfm(images, **SfmLifter.Options().run_sfm_kwargs())``).
+    (``run_sfm(images, options=SfmLifter.Options().run_sfm_kwargs())``).
 
     Parameters
     ----------
@@ -268,6 +280,10 @@ def run_sfm(
         Known intrinsics (graphseg convention: pixel centres at integers),
         held fixed. Without them one shared camera of ``camera_model`` is
         estimated, starting from COLMAP's focal-length guess (1.2 x the larger side).
+    options : SfmRun or dict, optional
+        The run's options, as :meth:`SfmLifter.Options.run_sfm_kwargs` gives
+        them (the default; a dict is read as :class:`SfmRun`'s fields):
+
     peak_threshold : float
         SIFT detector threshold (COLMAP's default 0.0067 finds too few
         keypoints on renders).
@@ -387,6 +403,7 @@ def run_sfm(
     matches are reused) and a mapping of up to ``attempts`` runs, for pooled
     and, when views are missing, plain SIFT.
     """
+    run = options if isinstance(options, SfmRun) else SfmRun(**(options if options is not None else SfmLifter.Options().run_sfm_kwargs()))
     pycolmap = require("pycolmap", "sfm")
     import cv2
 
@@ -396,8 +413,8 @@ def run_sfm(
         if poses is not None:
             if K is None or len(K) != len(images) or any(k is None for k in K):
                 raise ValueError("known poses need the intrinsics K of every view")
-            return _triangulate_known(pycolmap, cv2, images, K, poses, peak_threshold=peak_threshold, min_tri_angle=min_tri_angle, num_threads=num_threads, ransac_seed=ransac_seed)
-        return _run_sfm(pycolmap, cv2, images, K, peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads, ransac_seed, fov_range, redraws, tuple(focal_starts))
+            return _triangulate_known(pycolmap, cv2, images, K, poses, peak_threshold=run.peak_threshold, min_tri_angle=run.min_tri_angle, num_threads=run.num_threads, ransac_seed=run.ransac_seed)
+        return _run_sfm(pycolmap, cv2, images, K, run)
     finally:
         pycolmap.logging.minloglevel = level
 
@@ -611,17 +628,9 @@ def _run_sfm(
     cv2: Any,
     images: list[np.ndarray],
     K: list[np.ndarray] | None,
-    peak_threshold: float,
-    min_tri_angle: float,
-    seed: int,
-    attempts: int,
-    camera_model: str,
-    num_threads: int = 1,
-    ransac_seed: int | None = None,
-    fov_range: tuple[float, float] | None = None,
-    redraws: int = 0,
-    focal_starts: tuple[float, ...] = (),
+    run: SfmRun,
 ) -> SfmReconstruction:
+    ransac_seed = run.ransac_seed
     n = len(images)
     known = K is not None and all(k is not None for k in K)
     names = [f"{i:04d}.png" for i in range(n)]
@@ -633,7 +642,7 @@ def _run_sfm(
 
         records: dict[int, tuple[Any, dict[str, Any]]] = {}  # each model built with its focal-length starts, by id
 
-        def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, known_d: bool, hold: bool = False) -> Any:
+        def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, hold: bool = False) -> Any:
             # Domain-size pooling first: its descriptors tell the squares of a checkered
             # table apart where plain SIFT's match the wrong square and give a wrong model
             # (docs/results.md, round 5). On weakly textured views it finds fewer matches
@@ -642,10 +651,7 @@ def _run_sfm(
             best, best_record = None, {}
             for pooling in (True, False):
                 record: dict[str, Any] = {}
-                rec = _map(
-                    pycolmap, root, names, Kd, known_d, peak_threshold, min_tri_angle, seed, attempts, camera_model, pooling,
-                    num_threads=num_threads, ransac_seed=draw, tag=tag, hold_focal=hold, starts=() if hold else focal_starts, record=record,
-                )
+                rec = _map(pycolmap, root, names, Kd, run, pooling=pooling, ransac_seed=draw, tag=tag, hold_focal=hold, record=record)
                 if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                     best, best_record = rec, record
                 if best is not None and best.num_reg_images() == n:
@@ -654,16 +660,16 @@ def _run_sfm(
                 records[id(best)] = (best, best_record)  # the model is held, so its id stays its own
             return best
 
-        best = model(ransac_seed, "", K, known)
+        best = model(ransac_seed, "", K)
         check: dict[str, Any] | None = None
-        if fov_range is not None and not known and best is not None:
+        if run.fov_range is not None and not known and best is not None:
             best, check = _check_focal(
                 best,
-                lambda k: model((base_seed + k) % _SEED_LIMIT, f"-r{k}", None, False),
-                lambda: model(ransac_seed, "-prior", None, False, hold=True),
+                lambda k: model((base_seed + k) % _SEED_LIMIT, f"-r{k}", None),
+                lambda: model(ransac_seed, "-prior", None, hold=True),
                 size,
-                fov_range,
-                redraws,
+                run.fov_range,
+                run.redraws,
             )
         if best is None:
             return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
@@ -822,18 +828,12 @@ def _map(
     root: Path,
     names: list[str],
     K: list[np.ndarray] | None,
-    known: bool,
-    peak_threshold: float,
-    min_tri_angle: float,
-    seed: int,
-    attempts: int,
-    camera_model: str,
+    run: SfmRun,
+    *,
     pooling: bool,
-    num_threads: int = 1,
     ransac_seed: int | None = None,
     tag: str = "",
     hold_focal: bool = False,
-    starts: tuple[float, ...] = (),
     record: dict[str, Any] | None = None,
 ) -> Any:
     """Features, exhaustive matches and incremental mapping in ``root``; the model with the most views, or None.
@@ -849,13 +849,16 @@ def _map(
     ``camera_model`` held at COLMAP's prior focal length
     (:func:`prior_intrinsics`); its distortion terms are estimated as usual.
     Where the first draw did not run that kind, the draw is matched afresh
-    with the focal length held. ``starts`` (fields of view, degrees; not with
+    with the focal length held. ``run.focal_starts`` (fields of view, degrees; not with
     ``K`` or ``hold_focal``): the same matches are mapped again from each of
     these focal lengths (a copy of the database each), and
     :func:`choose_start` picks among those models and the prior's; ``record``
     then receives the starts (:func:`run_sfm`'s ``info["focal_starts"]``).
     """
     n = len(names)
+    known = K is not None and all(k is not None for k in K)
+    peak_threshold, min_tri_angle, seed, attempts, camera_model, num_threads = run.peak_threshold, run.min_tri_angle, run.seed, run.attempts, run.camera_model, run.num_threads
+    starts = () if hold_focal else run.focal_starts
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
@@ -1389,7 +1392,7 @@ class SfmLifter(Backend):
         given = [v.K for v in scene.views]
         Ks = [np.asarray(k) for k in given if k is not None]
         if self.uses_given_poses(scene):
-            rec = run_sfm([v.rgb for v in scene.views], Ks, poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views], **self.options.run_sfm_kwargs())
+            rec = run_sfm([v.rgb for v in scene.views], Ks, self.options.run_sfm_kwargs(), poses=[np.asarray(v.cam_to_world, np.float64) for v in scene.views])
             if not len(rec.points):
                 raise SceneError(
                     "structure from motion triangulated no point with the given cameras (too little texture or overlap, or wrong poses); give depth, or sfm.use_poses=false to estimate the cameras",
@@ -1397,7 +1400,7 @@ class SfmLifter(Backend):
                     field="views",
                 )
             return rec, {"metric": True, "factor": 1.0, "method": "the given poses and intrinsics, held fixed (use_poses)"}
-        rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, **self.options.run_sfm_kwargs())
+        rec = run_sfm([v.rgb for v in scene.views], Ks if len(Ks) == len(given) else None, self.options.run_sfm_kwargs())
         if rec.num_registered < 2 or n < 2:
             missing = [scene.views[i].name for i in range(n) if not rec.registered[i]]
             raise SceneError(not_registered_message(rec.num_registered, n) + (f" (not registered: {', '.join(missing[:6])})" if missing else ""), where=scene.name, field="views")

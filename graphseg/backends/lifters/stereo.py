@@ -23,11 +23,12 @@ Examples
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["pair_points", "stereo_depths", "fuse_depths", "sparse_point_maps", "select_neighbours", "view_consistency"]
+__all__ = ["pair_points", "SgbmOptions", "stereo_depths", "fuse_depths", "sparse_point_maps", "select_neighbours", "view_consistency"]
 
 
 def _canon(img: np.ndarray, vertical: bool, flip: bool) -> np.ndarray:
@@ -118,6 +119,30 @@ def _to_camera(depth_rect: np.ndarray, K: np.ndarray, D: np.ndarray, R: np.ndarr
     return cam.astype(np.float32)
 
 
+@dataclass(frozen=True)
+class SgbmOptions:
+    """Settings of :func:`pair_points`' semi-global block matching.
+
+    Attributes
+    ----------
+    block_size : int
+        SGBM matching block (odd).
+    lr_tolerance : float
+        Pixels; left-right consistency.
+    max_disparities : int
+        Cap on the disparity search width.
+    max_zoom : float
+        The rectified canvas is at most this many times the image width and
+        height (the focal length shrinks to fit when the pair's rectified
+        images would be larger, as with strong forward motion).
+    """
+
+    block_size: int = 5
+    lr_tolerance: float = 1.0
+    max_disparities: int = 256
+    max_zoom: float = 1.5
+
+
 def pair_points(
     img1: np.ndarray,
     img2: np.ndarray,
@@ -129,10 +154,7 @@ def pair_points(
     D1: np.ndarray | None = None,
     D2: np.ndarray | None = None,
     depth_range: tuple[float, float] | None = None,
-    block_size: int = 5,
-    lr_tolerance: float = 1.0,
-    max_disparities: int = 256,
-    max_zoom: float = 1.5,
+    sgbm: SgbmOptions | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Camera-frame point maps of both images of a calibrated pair.
 
@@ -145,16 +167,8 @@ def pair_points(
     D1, D2 : OpenCV distortion coefficients, optional
     depth_range : (near, far), optional
         Sets the disparity search range (with 20% margin); without it 0..128 px.
-    block_size : int
-        SGBM matching block (odd).
-    lr_tolerance : float
-        Pixels; left-right consistency.
-    max_disparities : int
-        Cap on the disparity search width.
-    max_zoom : float
-        The rectified canvas is at most this many times the image width and
-        height (the focal length shrinks to fit when the pair's rectified
-        images would be larger, as with strong forward motion).
+    sgbm : SgbmOptions, optional
+        The matcher's settings (None: :class:`SgbmOptions`' defaults).
 
     Returns
     -------
@@ -169,6 +183,8 @@ def pair_points(
     """
     import cv2
 
+    opt = sgbm if sgbm is not None else SgbmOptions()
+    block_size, lr_tolerance, max_disparities, max_zoom = opt.block_size, opt.lr_tolerance, opt.max_disparities, opt.max_zoom
     R = np.asarray(R, np.float64)
     T = np.asarray(T, np.float64).reshape(3)
     h, w = img1.shape[:2]

@@ -31,7 +31,7 @@ Examples
 ...     m = [(abs(xx - x) < 6) & (abs(yy - y) < 6) for x, y in points]
 ...     logits = np.where(np.array(m), 10.0, -10.0)[:, None]
 ...     return logits, np.ones((len(points), 1))
->>> masks = generate_masks(predict, (32, 32), points_per_side=2).masks
+>>> masks = generate_masks(predict, (32, 32), AutomaskOptions(points_per_side=2)).masks
 >>> masks.shape, int(masks[0].sum())
 ((4, 32, 32), 121)
 """
@@ -42,6 +42,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
 
 __all__ = [
     "Proposals",
@@ -53,6 +54,7 @@ __all__ = [
     "remove_small_regions",
     "crop_boxes",
     "generate_masks",
+    "AutomaskOptions",
 ]
 
 Predict = Callable[[np.ndarray, np.ndarray], tuple[Any, Any]]
@@ -314,16 +316,13 @@ def _crop_proposals(
     crop: np.ndarray,
     image_hw: tuple[int, int],
     points: np.ndarray,
+    options: AutomaskOptions,
     *,
-    points_per_batch: int,
-    pred_iou_thresh: float,
-    stability_score_thresh: float,
-    stability_score_offset: float,
-    mask_threshold: float,
-    box_nms_thresh: float,
     edge_tolerance: float = 20.0,
 ) -> Proposals:
     """Proposals of one crop, in full-image coordinates, after NMS within the crop."""
+    points_per_batch, pred_iou_thresh, mask_threshold = options.points_per_batch, options.pred_iou_thresh, options.mask_threshold
+    stability_score_thresh, stability_score_offset, box_nms_thresh = options.stability_score_thresh, options.stability_score_offset, options.box_nms_thresh
     x0, y0, x1, y1 = (int(v) for v in crop)
     h, w = y1 - y0, x1 - x0
     H, W = image_hw
@@ -373,22 +372,37 @@ def _crop_proposals(
     return props
 
 
+class AutomaskOptions(BaseModel):
+    """The automatic mask generator's settings (see :func:`generate_masks`).
+
+    Defaults are those of SAM 2's ``SAM2AutomaticMaskGenerator`` (predicted-IoU
+    threshold 0.8; SAM 1 used 0.88).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    points_per_side: int = Field(32, ge=1)
+    points_per_batch: int = Field(64, ge=1)
+    pred_iou_thresh: float = 0.8
+    stability_score_thresh: float = Field(0.95, ge=0, le=1)
+    stability_score_offset: float = 1.0
+    mask_threshold: float = 0.0
+    box_nms_thresh: float = Field(0.7, ge=0, le=1)
+    min_mask_region_area: int = Field(0, ge=0)
+    crop_n_layers: int = Field(0, ge=0)
+    crop_nms_thresh: float = Field(0.7, ge=0, le=1)
+    crop_overlap_ratio: float = Field(512 / 1500, ge=0, lt=1)
+    crop_n_points_downscale_factor: int = Field(1, ge=1)
+
+    def generator_kwargs(self) -> dict[str, Any]:
+        """The generator's fields only (a segmenter's Options adds its own)."""
+        return {k: getattr(self, k) for k in AutomaskOptions.model_fields}
+
+
 def generate_masks(
     predict: Predict,
     shape: tuple[int, int],
+    options: AutomaskOptions | None = None,
     *,
-    points_per_side: int = 32,
-    points_per_batch: int = 64,
-    pred_iou_thresh: float = 0.88,
-    stability_score_thresh: float = 0.95,
-    stability_score_offset: float = 1.0,
-    mask_threshold: float = 0.0,
-    box_nms_thresh: float = 0.7,
-    min_mask_region_area: int = 0,
-    crop_n_layers: int = 0,
-    crop_nms_thresh: float = 0.7,
-    crop_overlap_ratio: float = 512 / 1500,
-    crop_n_points_downscale_factor: int = 1,
     predict_crop: Callable[[np.ndarray], Predict] | None = None,
 ) -> Proposals:
     """Segment everything: grid prompts -> filtered, de-duplicated masks.
@@ -400,6 +414,9 @@ def generate_masks(
         for the whole image; points are ``(x, y)`` pixels, labels are 1.
     shape : (H, W)
         Image size; masks are returned at this size.
+    options : AutomaskOptions, optional
+        The generator's settings (None: :class:`AutomaskOptions`' defaults, SAM 2's). Its fields:
+
     points_per_side : int
         Grid of ``points_per_side^2`` prompts (SAM default 32).
     points_per_batch : int
@@ -436,35 +453,26 @@ def generate_masks(
     in the candidates kept. Candidates are held bit-packed until NMS
     (``H W / 8`` bytes each).
     """
+    o = options if options is not None else AutomaskOptions()
     H, W = (int(s) for s in shape)
+    crop_n_layers, crop_overlap_ratio, min_mask_region_area, box_nms_thresh = o.crop_n_layers, o.crop_overlap_ratio, o.min_mask_region_area, o.box_nms_thresh
     if crop_n_layers > 0 and predict_crop is None:
         raise ValueError("crop_n_layers > 0 needs predict_crop (a function box -> predict for that crop)")
     boxes, layers = crop_boxes((H, W), crop_n_layers, crop_overlap_ratio)
     parts = []
     for box, layer in zip(boxes, layers):
-        n = max(1, int(points_per_side / crop_n_points_downscale_factor**layer))
+        n = max(1, int(o.points_per_side / o.crop_n_points_downscale_factor**layer))
         cw, ch = box[2] - box[0], box[3] - box[1]
         pts = point_grid(n) * np.array([cw, ch])
         pred = predict if layer == 0 else predict_crop(box)  # type: ignore[misc]
         parts.append(
-            _crop_proposals(
-                pred,
-                box,
-                (H, W),
-                pts,
-                points_per_batch=points_per_batch,
-                pred_iou_thresh=pred_iou_thresh,
-                stability_score_thresh=stability_score_thresh,
-                stability_score_offset=stability_score_offset,
-                mask_threshold=mask_threshold,
-                box_nms_thresh=box_nms_thresh,
-            )
+            _crop_proposals(pred, box, (H, W), pts, o)
         )
     props = _concat(parts, H, W)
     if len(boxes) > 1:
         crop_of = np.concatenate([np.full(len(p.iou), i) for i, p in enumerate(parts)]).astype(np.int64)
         area = ((boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])).astype(np.float64)
-        props = props.take(box_nms(_sam_boxes(props.boxes), 1.0 / area[crop_of], crop_nms_thresh))
+        props = props.take(box_nms(_sam_boxes(props.boxes), 1.0 / area[crop_of], o.crop_nms_thresh))
     if min_mask_region_area > 0 and len(props.masks):
         new_masks = np.empty_like(props.masks)
         unchanged = np.empty(len(props.masks), np.float64)

@@ -154,6 +154,6 @@ class ConvexitySegmenter(Backend):
             raise SceneError("the convexity segmenter needs depth + K or a point map", where=view.name, field="depth") from err
         o = self.options
         # min_area is split_concave's here; the geometric segments keep GeometricOptions' own
-        geometric = {**o.geometric_kwargs(), "min_area": GeometricOptions.model_fields["min_area"].default}
-        seg = geometric_segments(pts, view.rgb, rng=o.seed, **geometric)
+        geometric = GeometricOptions(**{**o.geometric_kwargs(), "min_area": GeometricOptions.model_fields["min_area"].default})
+        seg = geometric_segments(pts, view.rgb, geometric, rng=o.seed)
         return split_concave(seg, pts, threshold=o.threshold, normal_step=o.normal_step, reach=o.reach, min_area=o.min_area)

@@ -6,7 +6,7 @@ rarely cross object boundaries because objects are separated in depth;
 objects that touch and share a depth band can merge.
 
 :class:`GeometricOptions` holds the defaults of :func:`geometric_segments`,
-which takes them as required keywords; ``GeometricSegmenter.Options`` adds the
+which takes it as its ``options``; ``GeometricSegmenter.Options`` adds the
 segmenter's own (``seed``, ``edges``, ``hed_weights``).
 
 Examples
@@ -16,7 +16,7 @@ Examples
 >>> pts[..., 0] = np.arange(16) * 0.002; pts[..., 2] = 0.5
 >>> pts[:, 8:, 2] = 0.6                                      # a 10 cm depth step at column 8
 >>> opts = GeometricOptions(background=BackgroundConfig(plane=False, max_distance=None), min_area=4, color_threshold=None, color_regions=None)
->>> np.unique(geometric_segments(pts, **opts.geometric_kwargs())).tolist()
+>>> np.unique(geometric_segments(pts, options=opts)).tolist()
 [1, 2]
 """
 
@@ -70,26 +70,15 @@ class GeometricOptions(BaseModel):
 def geometric_segments(
     points: np.ndarray,
     rgb: np.ndarray | None = None,
+    options: GeometricOptions | None = None,
     *,
-    background: BackgroundConfig | None,
-    depth_abs: float,
-    depth_rel: float,
-    normal_angle: float | None,
-    color_threshold: float | None,
-    color_blur: float,
-    min_area: int,
-    fill_radius: int,
-    color_regions: float | None,
-    region_scale: float,
     edges: np.ndarray | None = None,
-    edge_threshold: float,
     rng: Any = None,
 ) -> np.ndarray:
     """Segment a camera-frame point map into object parts.
 
-    Every option is a required keyword; the defaults live in
-    :class:`GeometricOptions` (``geometric_segments(points, rgb,
-    **GeometricOptions().geometric_kwargs())``).
+    The options and their defaults live in :class:`GeometricOptions`
+    (None: its defaults; a ``GeometricSegmenter.Options`` is one too).
 
     Parameters
     ----------
@@ -97,6 +86,9 @@ def geometric_segments(
         Camera-frame points (camera at the origin, z forward), NaN = invalid.
     rgb : uint8 ``[H, W, 3]``, optional
         For colour edges.
+    options : GeometricOptions, optional
+        Its fields:
+
     background : BackgroundConfig, optional
         The table plane and distance limit, found by the method's own code
         (:func:`graphseg.geometry.fit_table_plane`) with the same
@@ -126,15 +118,17 @@ def geometric_segments(
         means updated, while the closest pair differs by less than this. Region
         means resist texture better than edge cuts, whose gaps let touching
         objects of different colours leak into one part.
-    edges : float ``[H, W]``, optional
+    edge_threshold : float
+        Edge probability at which ``edges`` cut.
+    edges : float ``[H, W]``, optional, keyword-only
         An edge probability map (for example HED's,
         :func:`graphseg.backends.segmenters.hed.hed_edges`). Its ridges (the skeleton of
         ``edges >= edge_threshold``, one pixel wide and 8-connected, so no
         4-neighbour path crosses them, and they reach the image border where
         the edge does) cut the pixel graph; the ridge pixels are then filled
         from the parts beside them like any cut line.
-    edge_threshold : float
-        Edge probability at which ``edges`` cut.
+    rng : None, int or numpy.random.Generator, keyword-only
+        The table plane's RANSAC.
 
     Returns
     -------
@@ -152,7 +146,7 @@ def geometric_segments(
     >>> pts[..., 0] = np.arange(16) * 0.002; pts[..., 2] = 0.5
     >>> pts[:, 8:, 2] = 0.6                                      # a 10 cm depth step at column 8
     >>> opts = GeometricOptions(background=BackgroundConfig(plane=False, max_distance=None), min_area=4, color_threshold=None, color_regions=None)
-    >>> lab = geometric_segments(pts, **opts.geometric_kwargs())
+    >>> lab = geometric_segments(pts, options=opts)
     >>> lab.shape, np.unique(lab[:, :8]).tolist(), np.unique(lab[:, 8:]).tolist()
     ((12, 16), [1], [2])
     """
@@ -160,6 +154,9 @@ def geometric_segments(
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
+    o = options if options is not None else GeometricOptions()
+    background, depth_abs, depth_rel, normal_angle, min_area, fill_radius = o.background, o.depth_abs, o.depth_rel, o.normal_angle, o.min_area, o.fill_radius
+    color_threshold, color_blur, color_regions, region_scale, edge_threshold = o.color_threshold, o.color_blur, o.color_regions, o.region_scale, o.edge_threshold
     P = np.asarray(points, np.float32)
     h, w = P.shape[:2]
     valid = np.asarray(np.isfinite(P).all(-1))
@@ -383,4 +380,4 @@ class GeometricSegmenter(Backend):
         except SceneError as err:
             raise SceneError("the geometric segmenter needs depth + K or a point map", where=view.name, field="depth") from err
         edges = None if self.edge_model is None else self.edge_model(view)
-        return geometric_segments(pts, view.rgb, rng=self.options.seed, edges=edges, **self.options.geometric_kwargs())
+        return geometric_segments(pts, view.rgb, self.options, rng=self.options.seed, edges=edges)

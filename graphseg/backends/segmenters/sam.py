@@ -28,42 +28,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from ...scene import SceneError, View
 from ..imaging import IMAGENET_MEAN, IMAGENET_STD, view_rgb
 from ..options import ModelBackend, checkpoint_path, require_backend
-from .automask import Predict, Proposals, generate_masks
+from .automask import AutomaskOptions, Predict, Proposals, generate_masks
 
 __all__ = ["AutomaskOptions", "SAM2Segmenter", "SamOnnxSegmenter", "sam2_config_name", "sam2_predictor", "load_sam2"]
 
 _SIZES = {"tiny": "t", "t": "t", "small": "s", "s": "s", "base_plus": "b+", "b+": "b+", "base": "b+", "large": "l", "l": "l"}
-
-
-class AutomaskOptions(BaseModel):
-    """The automatic mask generator's settings (see :func:`~graphseg.backends.segmenters.automask.generate_masks`).
-
-    Defaults are those of SAM 2's ``SAM2AutomaticMaskGenerator`` (predicted-IoU
-    threshold 0.8; SAM 1 used 0.88).
-    """
-
-    model_config = ConfigDict(extra="forbid")
-    points_per_side: int = Field(32, ge=1)
-    points_per_batch: int = Field(64, ge=1)
-    pred_iou_thresh: float = 0.8
-    stability_score_thresh: float = Field(0.95, ge=0, le=1)
-    stability_score_offset: float = 1.0
-    mask_threshold: float = 0.0
-    box_nms_thresh: float = Field(0.7, ge=0, le=1)
-    min_mask_region_area: int = Field(0, ge=0)
-    crop_n_layers: int = Field(0, ge=0)
-    crop_nms_thresh: float = Field(0.7, ge=0, le=1)
-    crop_overlap_ratio: float = Field(512 / 1500, ge=0, lt=1)
-    crop_n_points_downscale_factor: int = Field(1, ge=1)
-
-    def generator_kwargs(self) -> dict[str, Any]:
-        """The fields that :func:`generate_masks` takes."""
-        return {k: getattr(self, k) for k in AutomaskOptions.model_fields}
 
 
 def sam2_config_name(name: str | Path) -> str:
@@ -223,10 +197,8 @@ class SAM2Segmenter(ModelBackend):
         """All kept proposals (masks, predicted IoU, stability, boxes, prompt points)."""
         rgb = view_rgb(view)
         make = lambda im: sam2_predictor(self.model, im)  # noqa: E731
-        return generate_masks(make(rgb), rgb.shape[:2], predict_crop=_crop_predictor(make, rgb), **self.options_generator())
+        return generate_masks(make(rgb), rgb.shape[:2], self.options, predict_crop=_crop_predictor(make, rgb))
 
-    def options_generator(self) -> dict[str, Any]:
-        return AutomaskOptions.generator_kwargs(self.options)
 
     def __call__(self, view: View) -> list[np.ndarray] | np.ndarray:
         return _masks_or_empty(self.proposals(view), view)
@@ -371,7 +343,7 @@ class SamOnnxSegmenter(ModelBackend):
     def proposals(self, view: View) -> Proposals:
         """All kept proposals (masks, predicted IoU, stability, boxes, prompt points)."""
         rgb = view_rgb(view)
-        return generate_masks(self.predictor(rgb), rgb.shape[:2], predict_crop=_crop_predictor(self.predictor, rgb), **AutomaskOptions.generator_kwargs(self.options))
+        return generate_masks(self.predictor(rgb), rgb.shape[:2], self.options, predict_crop=_crop_predictor(self.predictor, rgb))
 
     def __call__(self, view: View) -> list[np.ndarray] | np.ndarray:
         return _masks_or_empty(self.proposals(view), view)
