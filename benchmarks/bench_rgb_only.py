@@ -514,9 +514,36 @@ def checks(rows: list[dict]) -> list[dict]:
     return out
 
 
+def tails(rows: list[dict]) -> list[dict]:
+    """Per half: the worst scene and how many scenes fall below 0.4, 0.5 and 0.6 (photos only; a failed run counts as 0).
+
+    A mean hides a catastrophic scene; this table shows it (issue 54).
+    """
+    out = []
+    for half in ("tune", "check", "extra"):
+        hs = _in_half(rows, half)
+        if not hs:
+            continue
+        ious = sorted(((_f(r, "rgb", "iou", True) or 0.0), r["name"]) for r in hs)
+        out.append(
+            {
+                "half": half,
+                "n": len(hs),
+                "mean": _mean([x for x, _ in ious]),
+                "worst": ious[0][1],
+                "worst_iou": ious[0][0],
+                "below_0.4": sum(x < 0.4 for x, _ in ious),
+                "below_0.5": sum(x < 0.5 for x, _ in ious),
+                "below_0.6": sum(x < 0.6 for x, _ in ious),
+            }
+        )
+    return out
+
+
 SCENE_COLS = ["scene", "half", "set", "reg", "rot_deg", "rel_rot_deg", "focal", "sfm_pts", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "pred/gt_d", "gap", "lift_s", "segment_s", "graph_s", "total_s", "depth_total_s", "rss_mb", "error"]
 SUMMARY_COLS = ["half", "group", "n", "ok", "registered", "rot_deg", "rel_rot_deg", "focal_err", "depth_err", "lifted", "iou", "f1", "prec", "pq", "pred/gt", "iou_d", "f1_d", "prec_d", "pq_d", "gap", "total_s", "max_total_s", "depth_total_s", "max_rss_mb"]
 CHECK_COLS = ["half", "check", "n", "value", "pass"]
+TAIL_COLS = ["half", "n", "mean", "worst", "worst_iou", "below_0.4", "below_0.5", "below_0.6"]
 LOSS_COLS = ["scene", "half", "no_point", "background", "no_mask", "unlabelled", "labelled", "masks_maj", "obj_maj", "iou", "masks_maj_d", "obj_maj_d", "iou_d"]
 LOSS_NOTE = (
     "Shares of the ground-truth object pixels of the RGB-only run's views: no lifted point, taken by the background class, "
@@ -536,6 +563,8 @@ def report(payload: dict, path: Path) -> None:
     t2 = print_table(payload["summary"], SUMMARY_COLS)
     print("\nAcceptance checks (issue 20; the check half is the acceptance, tune and all beside it):")
     t3 = print_table(payload["checks"], CHECK_COLS)
+    print("\nThe tail (worst scene and scenes below 0.4 / 0.5 / 0.6, photos only, per half):")
+    t6 = print_table(payload.get("tails") or tails(rows), TAIL_COLS)
     print("\nWhere the loss is (" + LOSS_NOTE + "):")
     t5 = print_table([loss_row(r) for r in synth if r["rgb"].get("breakdown")] + loss_summary(rows), LOSS_COLS)
     ycb = [r for r in rows if r.get("group") == "ycbv"]
@@ -554,7 +583,7 @@ def report(payload: dict, path: Path) -> None:
         + ("RGB-only = depth hidden, the intrinsics and poses kept (`--poses`: the cameras are given); " if payload.get("rgb_mode") == "nodepth" else "RGB-only = depth, poses and intrinsics removed; ")
         + "`*_d` = the same scene with its true depth. "
         "IoU, F1, precision and PQ are computed on the true point maps for both runs; a failed RGB-only run counts as 0.\n\n"
-        "## Acceptance checks\n\n" + t3 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + "\n\n## Where the loss is\n\n" + LOSS_NOTE + "\n\n" + t5 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
+        "## Acceptance checks\n\n" + t3 + "\n\n## The tail\n\nPhotos only, per half; a failed run counts as 0.\n\n" + t6 + "\n\n## Summary per half and group\n\n" + t2 + "\n\n## Per scene\n\n" + t1 + "\n\n## Where the loss is\n\n" + LOSS_NOTE + "\n\n" + t5 + ("\n\n## YCB-Video (extra)\n\n" + t4 if t4 else "") + "\n"
     )
     print(f"wrote {md}")
 
@@ -611,7 +640,7 @@ def main(argv=None) -> int:
             _progress(rows[-1])
     if args.ycb:
         rows += run_ycb(config, depth_config)
-    order = {s.name: i for i, s in enumerate(families.SCENES + families.EXTRA)}
+    order = {s.name: i for i, s in enumerate(families.SCENES + families.HARD + families.EXTRA)}
     rows = sorted(old_rows + rows, key=lambda r: (r.get("group") != "synthetic", order.get(r["scene"], 10**6), r["scene"]))
     payload = {
         "argv": list(sys.argv[1:] if argv is None else argv),
@@ -623,11 +652,12 @@ def main(argv=None) -> int:
         "depth_config": _config(depth_config).to_dict(),
         "machine_note": f"{os.cpu_count()} CPU cores, shared (1/5/15-min load average at the start: {', '.join(f'{x:.1f}' for x in load0)}; at the end: {', '.join(f'{x:.1f}' for x in os.getloadavg())})",
         "elapsed_s": time.perf_counter() - t0,
-        "families": [s.to_dict() for s in (families.EXTRA if extra else families.SCENES)],
+        "families": [s.to_dict() for s in (families.EXTRA if extra else families.SCENES + families.HARD)],
         "targets": {"iou": TARGET_IOU, "gap": TARGET_GAP, "ring_iou": TARGET_RING_IOU, "seconds_8_views": TARGET_SECONDS_8, "rss_mb_8_views": TARGET_RSS_MB_8},
         "rows": rows,
         "summary": summarise(rows),
         "checks": checks(rows),
+        "tails": tails(rows),
     }
     report(payload, path)
     return 0

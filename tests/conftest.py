@@ -4,15 +4,15 @@ import os
 import sys
 from pathlib import Path
 
+import pytest
+
 # One math thread per test process. The suite runs two pytest-xdist workers on two cores; with
 # OpenBLAS, OpenMP and torch each starting a thread per core in both workers, the cores were
-# oversubscribed (README test command: 5:58 with the libraries' defaults, 4:53 with one thread).
+# oversubscribed (the suite on an idle 2-core machine: 5:58 with the libraries' defaults, 4:53 with one thread).
 # Set here, before any worker starts or imports numpy, so the workers inherit it; a value the
 # user set is kept.
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
-
-import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data" / "ycbv"

@@ -11,7 +11,11 @@ every pair, and both halves contain every object set (bundled, procedural,
 mixed), arcs and rings, 3, 5, 8 and 10 views, and every layout (spread, touching,
 stacked).
 
-An **extra** tuning pool (:data:`EXTRA`, ``scenes("extra")``) holds 30 more scenes: every
+The tune half also holds :data:`HARD`: two scenes of the kind that failed a user (issue
+54: 8 photos over a narrow arc of a wooden table, taken close, so that large objects fill the
+view). They have no partner in the check half, which stays as it was and unseen.
+
+An **extra** tuning pool (:data:`EXTRA`, ``scenes("extra")``) holds 34 more scenes: every
 tune scene again with the seed raised by 100 and by 200 (other objects, placements,
 textures and light) and a vertical field of view of 44, 50 or 56 degrees (about 57-70
 across the 640-pixel side; the benchmark's own cameras have 50). Being drawn from the
@@ -33,8 +37,8 @@ Grid
 
 Examples
 --------
->>> len(SCENES), len(scenes("tune")), len(scenes("check")), len(scenes("extra"))
-(30, 15, 15, 30)
+>>> len(SCENES), len(HARD), len(scenes("tune")), len(scenes("check")), len(scenes("extra"))
+(30, 2, 17, 15, 34)
 >>> spec = get("arc20-3v-bundled-s2000")
 >>> spec.half, spec.kind, spec.views, spec.size
 ('tune', 'arc', 3, (640, 480))
@@ -47,7 +51,7 @@ from typing import Any
 
 from ..scene import Scene
 
-__all__ = ["SceneSpec", "SCENES", "EXTRA", "HALVES", "scenes", "get", "make_scene", "rgb_only_scene", "describe"]
+__all__ = ["SceneSpec", "SCENES", "HARD", "EXTRA", "HALVES", "scenes", "get", "make_scene", "rgb_only_scene", "describe"]
 
 #: The two halves of the split: settings are chosen on ``tune`` only; ``check`` is reported beside it.
 HALVES = ("tune", "check")
@@ -63,8 +67,9 @@ class SceneSpec:
 
     ``arc_deg`` below 120 is an *arc* (a wrist-camera sweep from the first view
     to the last); 120 and above a *ring* (360 = a full circle, views evenly spaced).
-    ``fov_deg`` is the cameras' vertical field of view; ``extra`` marks a scene of
-    the extra tuning pool (:data:`EXTRA`).
+    ``fov_deg`` is the cameras' vertical field of view and ``radius`` their
+    horizontal distance from the table's centre (metres); ``extra`` marks a scene
+    of the extra tuning pool (:data:`EXTRA`).
     """
 
     name: str
@@ -80,6 +85,7 @@ class SceneSpec:
     height: float = 0.42
     fov_deg: float = 50.0
     extra: bool = False
+    radius: float = 0.5
 
     @property
     def half(self) -> str:
@@ -149,14 +155,25 @@ def _build() -> tuple[SceneSpec, ...]:
     return tuple(out)
 
 
-#: Every benchmark scene, in pair order (tune member first).
+#: Every paired benchmark scene, in pair order (tune member first).
 SCENES: tuple[SceneSpec, ...] = _build()
+
+#: Tune-only scenes of the kind that failed (issue 54): 8 views over a narrow arc, a wooden
+#: table (the table's own plank image, or the procedural wood grain), cameras 0.33-0.35 m from the
+#: centre and 0.28-0.30 m above the table, so the objects fill much of the view. Even seeds after the pairs'.
+HARD: tuple[SceneSpec, ...] = tuple(
+    SceneSpec(name=f"arc{arc}-8v-{oset}-s{seed}", seed=seed, object_set=oset, objects=n, layout=layout, table_texture=table, lighting=light, arc_deg=float(arc), views=8, height=h, radius=r)
+    for seed, oset, n, layout, table, light, arc, h, r in (
+        (SEED0 + 2 * len(_PAIRS), "bundled", 5, "spread", "wood", None, 40, 0.30, 0.35),
+        (SEED0 + 2 * len(_PAIRS) + 2, "procedural", 4, "touching", None, "vary", 35, 0.28, 0.33),
+    )
+)
 
 
 def _build_extra() -> tuple[SceneSpec, ...]:
     out = []
     for off in EXTRA_OFFSETS:
-        for k, s in enumerate(x for x in SCENES if x.half == "tune"):
+        for k, s in enumerate(x for x in SCENES + HARD if x.half == "tune"):
             seed = s.seed + off
             out.append(replace(s, seed=seed, name=f"{s.name.rsplit('-s', 1)[0]}-s{seed}", fov_deg=EXTRA_FOVS[k % len(EXTRA_FOVS)], extra=True))
     return tuple(out)
@@ -169,17 +186,17 @@ EXTRA: tuple[SceneSpec, ...] = _build_extra()
 def scenes(half: str = "all") -> list[SceneSpec]:
     """The scenes of one half (``"tune"`` or ``"check"``), ``"all"`` (both halves) or the ``"extra"`` tuning pool."""
     if half == "all":
-        return list(SCENES)
+        return list(SCENES + HARD)
     if half == "extra":
         return list(EXTRA)
     if half not in HALVES:
         raise ValueError(f"half: expected 'tune', 'check', 'all' or 'extra' (got {half!r})")
-    return [s for s in SCENES if s.half == half]
+    return [s for s in SCENES + HARD if s.half == half]
 
 
 def get(name: str) -> SceneSpec:
     """The scene called ``name``, in either half or the extra pool (a ``ValueError`` naming the halves' scenes otherwise)."""
-    for s in SCENES + EXTRA:
+    for s in SCENES + HARD + EXTRA:
         if s.name == name:
             return s
     raise ValueError(f"unknown benchmark scene {name!r}; choose from {', '.join(s.name for s in SCENES)} (or the extra pool: describe('extra'))")
@@ -206,7 +223,7 @@ def make_scene(spec: SceneSpec, **overrides: Any) -> Scene:
         "table_texture": spec.table_texture,
         "lighting": spec.lighting,
     }
-    rig = {"arc_deg": spec.arc_deg, "height": spec.height, "fov_deg": spec.fov_deg}
+    rig = {"arc_deg": spec.arc_deg, "height": spec.height, "fov_deg": spec.fov_deg, "radius": spec.radius}
     rig.update({k: v for k, v in overrides.items() if k in CameraRig.__dataclass_fields__})
     options.update({k: v for k, v in overrides.items() if k not in CameraRig.__dataclass_fields__})
     s = synthesize(**options, cameras=CameraRig(**rig))
