@@ -126,7 +126,7 @@ def test_the_defaults_are_the_former_constructor_defaults():
         "peak_threshold": 0.002, "min_tri_angle": 2.0, "num_threads": 2, "stereo": True, "max_pair_angle": 45.0, "max_neighbours": 4,
         "sparse_radius": 1, "fill": "planes", "fill_confidence": 0.25, "seed": 0, "ransac_seed": None, "consistency": False,
         "transfer": True, "transfer_min_confidence": 0.5, "transfer_color_distance": 30.0, "camera_model": "SIMPLE_PINHOLE",
-        "fov_range": (35.0, 110.0), "redraws": 2, "use_poses": True, "min_span": 2.0, "stereo_check": 0.2, "focal_starts": (),
+        "fov_range": (35.0, 110.0), "redraws": 2, "use_poses": True, "min_span": 2.0, "stereo_check": 0.2, "focal_starts": (), "prior_fov": 65.0,
     }  # fmt: skip
 
 

@@ -189,31 +189,48 @@ def test_checkered_table_registers_with_pooled_descriptors():
 class _FakeModel:
     def __init__(self, k):
         self.k = k
+        self.info = {}
 
     def num_reg_images(self):
         return self.k
 
 
 @pytest.mark.parametrize(
-    "pooled, plain, expected, calls",
-    [(5, 3, "pooled", [True]), (2, 5, "plain", [True, False]), (3, 3, "pooled", [True, False]), (None, 4, "plain", [True, False])],
+    "pooled, plain, unguided, expected, calls",
+    [
+        (5, 3, 1, "dsp", ["dsp"]),
+        (2, 5, 1, "sift", ["dsp", "sift"]),
+        (3, 3, 1, "dsp", ["dsp", "sift"]),  # 3 of 5: at least half, no third try
+        (None, 4, 1, "sift", ["dsp", "sift"]),
+        (1, 2, 4, "sift-unguided", ["dsp", "sift", "sift-unguided"]),  # fewer than half: without guided matching too (issue 54)
+        (2, None, 1, "dsp", ["dsp", "sift", "sift-unguided"]),  # tried, not better: the pooled model stays
+    ],
 )
-def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled, plain, expected, calls):
-    """The pooled model is kept unless plain SIFT registers more views; plain SIFT runs only then."""
+def test_plain_sift_runs_only_when_pooling_leaves_views_out(monkeypatch, pooled, plain, unguided, expected, calls):
+    """The pooled model is kept unless plain SIFT registers more views; plain SIFT runs only then, and
+    plain SIFT without guided matching only when fewer than half the views registered; each try is recorded."""
     from graphseg.backends.lifters import sfm
 
-    models = {True: None if pooled is None else _FakeModel(pooled), False: _FakeModel(plain)}
+    models = {"dsp": pooled, "sift": plain, "sift-unguided": unguided}
+    models = {k: None if v is None else _FakeModel(v) for k, v in models.items()}
     seen = []
 
-    def fake_map(*args, pooling, **kwargs):
-        seen.append(pooling)
-        return models[pooling]
+    def fake_map(*args, variant, **kwargs):
+        seen.append(variant)
+        return models[variant]
 
     monkeypatch.setattr(sfm, "_map", fake_map)
     monkeypatch.setattr(sfm, "_convert", lambda rec, names: rec)
     images = [np.zeros((8, 8, 3), np.uint8)] * 5
-    assert sfm.run_sfm(images, options=sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs()) is models[expected == "pooled"]
-    assert seen == calls
+    rec = sfm.run_sfm(images, options=sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs())
+    assert rec is models[expected] and seen == calls
+    got = rec.info["registration"]
+    assert got["kept"] == expected and [t["variant"] for t in got["tried"]] == calls
+    assert [t["views"] for t in got["tried"]] == [getattr(models[c], "k", 0) for c in calls]
+    line = sfm.registration_warning(got, 5)
+    assert (line is None) == ("sift-unguided" not in calls)
+    if line:
+        assert line.startswith(f"structure from motion registered {pooled or 0} of 5 views (plain SIFT: {plain or 0}); plain SIFT without guided matching registered {unguided}")
 
 
 class _FakeCamera:
@@ -271,6 +288,7 @@ def _fake_draws(monkeypatch, draws, held):
         ([(5, 200.0), None, (3, 57.0)], (5, 96.0), 96.0, 5, "prior", ["first", "r1", "r2", "prior"]),  # r2 lost views
         ([(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0), 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model lost a view
         ([(5, 200.0), (5, 20.0), (5, 250.0)], None, 200.0, 5, "first", ["first", "r1", "r2", "prior"]),  # the held model failed
+        ([(5, 1300.0), (5, 1310.0), (5, 1290.0)], (5, 58.0), 58.0, 5, "prior", ["first", "r1", "r2", "prior"]),  # 3.5 degrees: no lens, whatever agrees (issue 54)
     ],
 )
 def test_suspect_focal_length_redraws_then_holds_the_prior(monkeypatch, draws, held, focal, views, kept, tags):
@@ -293,7 +311,7 @@ def test_suspect_focal_length_redraws_then_holds_the_prior(monkeypatch, draws, h
     assert (line is None) == (tags == ["first"])
     if line:
         assert line.startswith(f"structure from motion: the focal length implied a {check['fov'][0]:.1f} degree field of view, outside 35-110")
-        assert ("held at 1.2 x" in line) == (kept == "prior")
+        assert ("held at the prior field of view" in line) == (kept == "prior")
         assert ("gave the same" in line) == ("confirmed" in check)
         assert ("so the first model was kept" in line) == (kept == "first")
         assert "nan" not in line and line.endswith(("was kept", "are known"))
@@ -322,7 +340,7 @@ def test_warning_lines_name_what_each_redraw_gave(monkeypatch):
     rec = sfm.run_sfm([np.zeros((60, 80, 3), np.uint8)] * 5, options=SfmLifter.Options().run_sfm_kwargs())
     assert focal_check_warning(rec.info["focal_check"]) == (
         "structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 "
-        "views, no model); the focal length was held at 1.2 x the larger image side (45.2 degrees); give the intrinsics (K) if "
+        "views, no model); the focal length was held at the prior field of view (45.2 degrees, sfm.prior_fov); give the intrinsics (K) if "
         "they are known"
     )
     _fake_draws(monkeypatch, [(5, 200.0), (5, 20.0), (5, 250.0)], (4, 96.0))
@@ -372,16 +390,17 @@ def test_fov_range_is_validated(bad):
 
 def test_focal_length_held_at_the_prior_on_real_photos(arc_scene):
     """A range that excludes the true field of view, with no redraw, sends a real reconstruction to
-    the prior: every view registers with the focal length held at 1.2 x the larger side, the other
-    parameters estimated, and the lifter says so in one warning line."""
+    the prior: every view registers with the focal length held at ``prior_fov`` (65 degrees across
+    the larger side), the other parameters estimated, and the lifter says so in one warning line."""
     lifter = SfmLifter(fov_range=(80.0, 110.0), redraws=0, stereo=False, fill=False, camera_model="SIMPLE_RADIAL")
     photos = rgb_only(arc_scene, keep_intrinsics=False)
     rec, _ = lifter.reconstruct(photos)
     check = rec.info["focal_check"]
     assert check["kept"] == "prior" and len(check["fov"]) == 1 and abs(check["fov"][0] - 63.7) < 2  # the true 63.7 degrees (focal 257 of 320 px)
-    assert abs(check["prior_fov"] - 45.2) < 0.1
+    assert abs(check["prior_fov"] - 65.0) < 0.1
     assert rec.registered.all()
-    assert all(k[0, 0] == 384.0 and k[1, 1] == 384.0 for k in rec.K)
+    held = 160 / np.tan(np.radians(32.5))  # 251 px, near the true 257
+    assert all(np.isclose(k[0, 0], held) and np.isclose(k[1, 1], held) for k in rec.K)
     assert any(d[0] != 0 for d in rec.dist)  # SIMPLE_RADIAL's k1 was still estimated
     lifted = lifter(photos)
     assert lifted.meta["sfm"]["focal_check"] == check
@@ -724,3 +743,21 @@ def test_transfer_lifts_more_pixels_with_the_same_accuracy(arc_scene):
             assert np.median(np.abs(za[new] - g.depth[new]) / g.depth[new]) < 0.02
     assert sum(gained) / len(gained) > 0.01
     assert sum(on.meta["sfm"]["transferred_fraction"]) == pytest.approx(sum(gained), rel=0.5)
+
+
+def test_the_held_focal_length_is_the_prior_field_of_view(tmp_path):
+    """``sfm.prior_fov`` (issue 54): a suspect focal length is held at a typical camera's field of view; None keeps COLMAP's 1.2 x the larger side."""
+    pycolmap = pytest.importorskip("pycolmap")
+    from graphseg.backends.lifters import sfm
+
+    for fov, expected in ((65.0, 320 / np.tan(np.radians(32.5))), (None, 1.2 * 640)):
+        db_path = tmp_path / f"{fov}.db"
+        with pycolmap.Database.open(db_path) as db:
+            db.write_camera(pycolmap.Camera.create_from_model_id(1, 0, 100.0, 640, 480))  # SIMPLE_PINHOLE, some focal length
+        inc = pycolmap.IncrementalPipelineOptions()
+        sfm._hold_prior_focal(pycolmap, db_path, inc, fov)
+        with pycolmap.Database.open(db_path) as db:
+            (cam,) = db.read_all_cameras()
+        assert np.isclose(cam.params[0], expected) and cam.has_prior_focal_length
+        assert not inc.ba_refine_focal_length and not inc.mapper.abs_pose_refine_focal_length
+    assert sfm.SfmLifter.Options().run_sfm_kwargs()["prior_fov"] == 65.0

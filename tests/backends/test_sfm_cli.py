@@ -73,6 +73,11 @@ def test_partial_registration_segments_the_registered_views(arc_scene, tmp_path,
     assert warn == [f"graphseg: warning: structure from motion registered {len(arc_scene)} of {len(arc_scene) + 1} views; segmenting those {len(arc_scene)}, without: blank"]
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     assert run["dropped_views"] == ["blank"] and run["views"] == [v.name for v in arc_scene.views]
+    # issue 54: run.json keeps structure from motion's record: the variants tried (pooled SIFT left the
+    # blank view out, so plain SIFT ran too; more than half registered, so no third try) and the views each registered
+    tried = run["sfm"]["registration"]["tried"]
+    assert [t["variant"] for t in tried] == ["dsp", "sift"] and max(t["views"] for t in tried) == len(arc_scene)
+    assert run["sfm"]["registered"] == len(arc_scene)
     assert f"in {len(arc_scene)} views" in cap.out
     assert main(["eval", str(tmp_path / "out"), "--quiet"]) == 0  # the evaluation follows the registered views
     # issue 54: eval reads the points the run estimated (points/) and never lifts again, so it gives the

@@ -53,6 +53,7 @@ __all__ = [
     "SfmReconstruction",
     "run_sfm",
     "SfmRun",
+    "registration_warning",
     "NOMINAL_DISTANCE",
     "CAMERA_MODELS",
     "not_registered_message",
@@ -258,6 +259,7 @@ class SfmRun:
     fov_range: tuple[float, float] | None = None
     redraws: int = 0
     focal_starts: tuple[float, ...] = ()
+    prior_fov: float | None = None
 
 
 def run_sfm(
@@ -337,15 +339,19 @@ def run_sfm(
         mapped from a database of its own (the features are reused). Redraws
         are tried in turn; the first that registers at least as many views as
         the first model and whose focal length is typical, or agrees with the
-        first model's (a ratio within 1 + :data:`FOCAL_AGREEMENT`), decides.
+        first model's (a ratio within 1 + :data:`FOCAL_AGREEMENT`, and a field
+        of view within :data:`FOCAL_POSSIBLE`), decides.
         A typical one is kept. An agreeing one keeps the first model (or
         itself, when it registers more views): an unusual lens that two draws
         reproduce. When no redraw decides, the first draw's matches are mapped
-        again with the focal length held at COLMAP's prior (1.2 x the larger
-        side, :func:`prior_intrinsics`; ``camera_model``'s distortion terms are
-        still estimated; for plain SIFT that the first draw did not run, that
-        draw is matched afresh), and that model is kept if it registers as
-        many views; otherwise the first model is. None: no check.
+        again with the focal length held at ``prior_fov`` (``camera_model``'s
+        distortion terms are still estimated; for a variant that the first
+        draw did not run, that draw is matched afresh), and that model is kept
+        if it registers as many views; otherwise the first model is. None: no check.
+    prior_fov : float, optional
+        The field of view (degrees across the larger side) a suspect focal
+        length is held at (see ``fov_range``); None: COLMAP's prior, 1.2 x
+        the larger side (:func:`prior_intrinsics`, 45.2 degrees).
     redraws : int
         RANSAC seeds tried after a suspect focal length: ``ransac_seed`` (0
         when None) plus 1, 2, ... ``redraws`` (modulo 2**31 - 1). Their matching
@@ -393,7 +399,10 @@ def run_sfm(
     Notes
     -----
     SIFT with domain-size pooling first; when that leaves views unregistered,
-    plain SIFT as well, and the model with more views is kept (pooled
+    plain SIFT as well, and the model with more views is kept; when both
+    register fewer than half the views, plain SIFT once more without guided
+    matching (``info["registration"]`` records the variants tried, their
+    registered views and the one kept; :func:`registration_warning`). (Pooled
     descriptors tell the squares of a checkered table apart; plain ones
     register more on weakly textured views). Exhaustive matching: O(N^2)
     image pairs. 5-30 s for 8 renders of 640 x 480 on two CPU cores (mapping,
@@ -641,6 +650,7 @@ def _run_sfm(
         _write_images(cv2, root, names, images)
 
         records: dict[int, tuple[Any, dict[str, Any]]] = {}  # each model built with its focal-length starts, by id
+        registration: dict[str, Any] = {}  # the first draw's descriptor and matching variants and the views each registered
 
         def model(draw: int | None, tag: str, Kd: list[np.ndarray] | None, hold: bool = False) -> Any:
             # Domain-size pooling first: its descriptors tell the squares of a checkered
@@ -648,14 +658,21 @@ def _run_sfm(
             # (docs/results.md, round 5). On weakly textured views it finds fewer matches
             # and can leave views unregistered; then plain SIFT runs too and the model
             # with more registered views is kept (ties keep the pooled one).
+            # Fewer than half the views registered by both: plain SIFT again without guided
+            # matching (its epipolar re-search follows a first two-view geometry that may be wrong).
             best, best_record = None, {}
-            for pooling in (True, False):
+            tried = []
+            for variant in VARIANTS:
+                have = 0 if best is None else int(best.num_reg_images())
+                if have == n or (variant == "sift-unguided" and 2 * have >= n):
+                    break
                 record: dict[str, Any] = {}
-                rec = _map(pycolmap, root, names, Kd, run, pooling=pooling, ransac_seed=draw, tag=tag, hold_focal=hold, record=record)
+                rec = _map(pycolmap, root, names, Kd, run, variant=variant, ransac_seed=draw, tag=tag, hold_focal=hold, record=record)
+                tried.append({"variant": variant, "views": 0 if rec is None else int(rec.num_reg_images())})
                 if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
                     best, best_record = rec, record
-                if best is not None and best.num_reg_images() == n:
-                    break
+            if tag == "":
+                registration.update(tried=tried, kept=max(tried, key=lambda t: t["views"])["variant"] if best is not None else None)
             if best is not None and best_record:
                 records[id(best)] = (best, best_record)  # the model is held, so its id stays its own
             return best
@@ -672,8 +689,11 @@ def _run_sfm(
                 run.redraws,
             )
         if best is None:
-            return SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
+            empty = SfmReconstruction(np.zeros(n, bool), [None] * n, [None] * n, [None] * n, np.zeros((0, 3)), [(np.zeros((0, 2)), np.zeros(0, np.int64))] * n)
+            empty.info["registration"] = registration
+            return empty
         out = _convert(best, names)
+        out.info["registration"] = registration
         if check is not None:
             out.info["focal_check"] = check
         if id(best) in records:
@@ -736,6 +756,15 @@ _SEED_LIMIT = 2**31 - 1
 #: Two focal lengths within this relative difference agree (:func:`run_sfm`'s focal-length check).
 FOCAL_AGREEMENT = 0.1
 
+#: Fields of view (degrees across the larger side) an agreeing redraw may confirm as an unusual
+#: lens. Outside them no lens is believed, however many draws agree (a 3.5 degree field of view
+#: that two draws reproduced kept a 3-of-8-view model; issue 54): the prior is tried instead.
+FOCAL_POSSIBLE = (10.0, 150.0)
+
+#: The descriptor and matching variants of a draw, in order: SIFT with domain-size pooling; plain
+#: SIFT when views are left out; plain SIFT without guided matching when fewer than half register.
+VARIANTS = ("dsp", "sift", "sift-unguided")
+
 
 def _check_focal(
     first: Any, redraw: Any, hold: Any, size: tuple[int, int], fov_range: tuple[float, float], redraws: int
@@ -768,7 +797,8 @@ def _check_focal(
         if views[-1] >= v0:
             if focal_plausible(Kk, size, fov_range):
                 return again, {**check, "kept": f"redraw {k}"}
-            if abs(np.log(float(Kk[0, 0]) / f0)) <= np.log1p(FOCAL_AGREEMENT):  # an unusual lens, reproduced
+            possible = FOCAL_POSSIBLE[0] <= fovs[-1] <= FOCAL_POSSIBLE[1]  # type: ignore[operator]
+            if possible and abs(np.log(float(Kk[0, 0]) / f0)) <= np.log1p(FOCAL_AGREEMENT):  # an unusual lens, reproduced
                 return (again, {**check, "kept": f"redraw {k}", "confirmed": k}) if views[-1] > v0 else (first, {**check, "kept": "first", "confirmed": k})
         del again  # one model at a time
     held = hold()
@@ -778,6 +808,26 @@ def _check_focal(
         if check["prior_views"] >= v0:
             return held, {**check, "kept": "prior"}
     return first, {**check, "kept": "first"}
+
+
+def registration_warning(registration: dict[str, Any] | None, num_views: int) -> str | None:
+    """The one warning line when fewer than half the views registered with SIFT (pooled, then plain) and plain SIFT without guided matching was tried (:func:`run_sfm`'s ``info["registration"]``); None otherwise.
+
+    Examples
+    --------
+    >>> tried = [{"variant": "dsp", "views": 3}, {"variant": "sift", "views": 2}, {"variant": "sift-unguided", "views": 6}]
+    >>> registration_warning({"tried": tried, "kept": "sift-unguided"}, 8)
+    'structure from motion registered 3 of 8 views (plain SIFT: 2); plain SIFT without guided matching registered 6 and was kept'
+    >>> registration_warning({"tried": tried[:2], "kept": "dsp"}, 8) is None
+    True
+    """
+    tried = {t["variant"]: t["views"] for t in (registration or {}).get("tried", [])}
+    if "sift-unguided" not in tried:
+        return None
+    head = f"structure from motion registered {tried.get('dsp', 0)} of {num_views} views (plain SIFT: {tried.get('sift', 0)})"
+    if registration.get("kept") == "sift-unguided":  # type: ignore[union-attr]
+        return f"{head}; plain SIFT without guided matching registered {tried['sift-unguided']} and was kept"
+    return f"{head}; plain SIFT without guided matching registered {tried['sift-unguided']}, no more"
 
 
 def focal_check_warning(check: dict[str, Any] | None) -> str | None:
@@ -791,7 +841,7 @@ def focal_check_warning(check: dict[str, Any] | None) -> str | None:
     >>> focal_check_warning({**base, "fov": [33.4, 33.2], "views": [9, 9], "kept": "first", "confirmed": 1})
     'structure from motion: the focal length implied a 33.4 degree field of view, outside 35-110; RANSAC redraw 1 gave the same (33.2), so the first model was kept; give the intrinsics (K) if they are known'
     >>> focal_check_warning({**base, "fov": [22.6, 70.1, None], "views": [5, 4, 0], "prior_views": 5, "prior_fov": 45.2, "kept": "prior"})
-    'structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 views, no model); the focal length was held at 1.2 x the larger image side (45.2 degrees); give the intrinsics (K) if they are known'
+    'structure from motion: the focal length implied a 22.6 degree field of view, outside 35-110 (redraws: 70.1 on 4 of 5 views, no model); the focal length was held at the prior field of view (45.2 degrees, sfm.prior_fov); give the intrinsics (K) if they are known'
     >>> focal_check_warning({"range": [35.0, 110.0], "fov": [61.0], "views": [3], "plausible": True, "kept": "first"}) is None
     True
     """
@@ -812,7 +862,7 @@ def focal_check_warning(check: dict[str, Any] | None) -> str | None:
     tried = ", ".join("no model" if f is None else f"{f:.1f}" + (f" on {v} of {n} views" if v < n else "") for f, v in zip(fov[1:], views[1:]))
     tried = f" (redraws: {tried})" if tried else ""
     if kept == "prior":
-        return f"{head}{tried}; the focal length was held at 1.2 x the larger image side ({check['prior_fov']:.1f} degrees); {hint}"
+        return f"{head}{tried}; the focal length was held at the prior field of view ({check['prior_fov']:.1f} degrees, sfm.prior_fov); {hint}"
     held = "built no model" if not check.get("prior_views") else f"registered {check['prior_views']} of {n} views"
     return f"{head}{tried}; no redraw gave a typical or agreeing focal length and the focal length held at the prior {held}, so the first model was kept; {hint}"
 
@@ -830,7 +880,7 @@ def _map(
     K: list[np.ndarray] | None,
     run: SfmRun,
     *,
-    pooling: bool,
+    variant: str,
     ransac_seed: int | None = None,
     tag: str = "",
     hold_focal: bool = False,
@@ -861,15 +911,17 @@ def _map(
     starts = () if hold_focal else run.focal_starts
     if hasattr(pycolmap, "set_random_seed"):
         pycolmap.set_random_seed(seed)  # this thread's generator only: the matching thread keeps COLMAP's default seed
+    pooling = variant == "dsp"
     ext, match, inc = _colmap_options(pycolmap, peak_threshold, min_tri_angle, seed, known, pooling)
-    kind = "dsp" if pooling else "sift"
-    tag = kind + tag
-    db = root / f"database-{tag}.db"
-    features, matched = root / f"features-{kind}.db", root / f"database-{kind}.db"
+    match.guided_matching = variant != "sift-unguided"
+    kind = "dsp" if pooling else "sift"  # the features: plain SIFT's serve both plain variants
+    db = root / f"database-{variant}{tag}.db"
+    features, matched = root / f"features-{kind}.db", root / f"database-{variant}.db"
+    tag = variant + tag
     hold = hold_focal and not known
     if hold and matched.exists():
         shutil.copyfile(matched, db)
-        _hold_prior_focal(pycolmap, db, inc)
+        _hold_prior_focal(pycolmap, db, inc, run.prior_fov)
     else:
         if not known and features.exists():
             shutil.copyfile(features, db)  # same images, same features: only the matching is drawn again
@@ -878,7 +930,7 @@ def _map(
             if not known:
                 shutil.copyfile(db, features)
         if hold:  # no matched database to reuse: the whole draw, held
-            _hold_prior_focal(pycolmap, db, inc)
+            _hold_prior_focal(pycolmap, db, inc, run.prior_fov)
         _match(pycolmap, db, match, ransac_seed, num_threads)
     best = _incremental(pycolmap, root, db, tag, inc, seed, attempts, n)
     if not starts or known or hold or best is None:
@@ -1035,14 +1087,15 @@ def _extract(pycolmap: Any, root: Path, db: Path, names: list[str], K: list[np.n
         _set_per_image_cameras(pycolmap, db, names, Ks)
 
 
-def _hold_prior_focal(pycolmap: Any, db_path: Path, inc: Any) -> None:
-    """Set every camera of a database to COLMAP's starting parameters (:func:`prior_intrinsics`'s focal length), mark its focal length as known and keep the mapper ``inc`` from refining it."""
+def _hold_prior_focal(pycolmap: Any, db_path: Path, inc: Any, fov: float | None = None) -> None:
+    """Set every camera of a database to the focal length of ``fov`` (degrees across the larger side; None: COLMAP's starting parameters, :func:`prior_intrinsics`), mark its focal length as known and keep the mapper ``inc`` from refining it."""
     inc.ba_refine_focal_length = False
     inc.mapper.abs_pose_refine_focal_length = False
     with pycolmap.Database.open(db_path) as db:
         for cam in db.read_all_cameras():
             w, h = int(cam.width), int(cam.height)
-            prior = pycolmap.Camera.create_from_model_id(cam.camera_id, cam.model, float(prior_intrinsics(w, h)[0, 0]), w, h)
+            f = float(prior_intrinsics(w, h)[0, 0]) if fov is None else (max(w, h) / 2) / float(np.tan(np.radians(fov) / 2))
+            prior = pycolmap.Camera.create_from_model_id(cam.camera_id, cam.model, f, w, h)
             cam.params = prior.params
             cam.has_prior_focal_length = True
             db.update_camera(cam)
@@ -1333,6 +1386,12 @@ class SfmLifter(Backend):
         focal_starts: tuple[float, ...] = Field(
             (), max_length=6, description="fields of view (degrees across the larger side) the focal length also starts from without intrinsics; the model with the most views and observations and the lowest reprojection error replaces the prior's when its focal length differs by more than 10% (): COLMAP's prior only"
         )
+        prior_fov: float | None = Field(
+            65.0,
+            gt=0,
+            lt=180,
+            description="degrees across the larger image side at which a suspect focal length is held when no redraw decides (a typical camera: this benchmark's 64, phones' main cameras 65-70, a RealSense D435's colour camera 69); None: COLMAP's prior, 1.2 x the larger side (45.2)",
+        )
         use_poses: bool = Field(True, description="with K and a pose for every view, triangulate with those cameras held fixed instead of estimating them")
         min_span: float = Field(
             MIN_SPAN,
@@ -1384,6 +1443,7 @@ class SfmLifter(Backend):
                 "fov_range": self.fov_range,
                 "redraws": self.redraws,
                 "focal_starts": tuple(self.focal_starts),
+                "prior_fov": self.prior_fov,
             }
 
     def reconstruct(self, scene: Scene) -> tuple[SfmReconstruction, dict[str, Any]]:
@@ -1434,7 +1494,7 @@ class SfmLifter(Backend):
             lifted = self.point_maps(scene, rec, scale)
             lifted.meta["sfm"]["registered"] = len(keep)  # what structure from motion registered; the views kept are the scene's
             lifted.meta["sfm"]["stereo_check"] = check
-        notes = [focal_check_warning(rec.info.get("focal_check"))]
+        notes = [registration_warning(rec.info.get("registration"), len(names)), focal_check_warning(rec.info.get("focal_check"))]
         distance = _median_distance(rec)
         span, baseline = camera_span(rec.cam_to_world, distance)
         if span < MIN_SPAN:
@@ -1540,6 +1600,7 @@ class SfmLifter(Backend):
                 "poses": rec.info.get("poses", "estimated"),
                 **({"focal_check": rec.info["focal_check"]} if "focal_check" in rec.info else {}),
                 **({"focal_starts": rec.info["focal_starts"]} if "focal_starts" in rec.info else {}),
+                **({"registration": rec.info["registration"]} if rec.info.get("registration") else {}),
                 **info,
             },
         }
