@@ -47,6 +47,23 @@ class BadInput(Exception):
     """A user-facing input problem (exit code 2)."""
 
 
+@contextlib.contextmanager
+def _jobs(args: argparse.Namespace) -> Iterator[None]:
+    """The worker processes of a command (``--jobs``, else ``GRAPHSEG_JOBS``, else the cores; :mod:`graphseg.parallel`)."""
+    from .parallel import ENV, job_count, jobs
+
+    n = getattr(args, "jobs", None)
+    if n is not None and n < 1:
+        raise BadInput(f"--jobs: expected an integer >= 1 (got {n})")
+    if n is None:
+        try:
+            job_count()
+        except ValueError as err:
+            raise BadInput(f"environment variable {ENV}: {str(err).split(': ', 1)[1]}") from None
+    with jobs(n):
+        yield
+
+
 class Terminated(KeyboardInterrupt):
     """Raised by the SIGTERM handler so that every ``finally`` cleans up."""
 
@@ -165,6 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--no-3d", action="store_true", help="GraphSeg-minus: skip the 3D stage")
     r.add_argument("--method", choices=["graphseg", "graphseg-minus", "maskclustering", "sam3d"], help="method (default from the config: graphseg); maskclustering and sam3d are baselines on the same inputs")
     r.add_argument("--seed", type=int, help="random seed (>= 0)")
+    r.add_argument("--jobs", type=int, help="worker processes for the views and pairs (default: GRAPHSEG_JOBS, else the cores; 1: one process); the output is the same for any count")
     _views_args(r)
     _common(r, overwrite=True)
 
@@ -238,6 +256,7 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--lifter", help="lifter name (default: rgbd when the views have depth; a scene-level lifter such as sfm lifts every view again at each add)")
     a.add_argument("--backend-option", action="append", default=[], metavar="NAME.KEY=VALUE", help="option KEY of backend NAME, for a new store")
     a.add_argument("--seed", type=int, help="random seed of a new store (>= 0)")
+    a.add_argument("--jobs", type=int, help="worker processes for the new views and pairs (default: GRAPHSEG_JOBS, else the cores; 1: one process)")
     _views_args(a)
     _common(a)
 
@@ -977,7 +996,7 @@ def _main(argv: list[str] | None) -> int:
         ap.print_help()
         return 2
     try:
-        with _signals(), _quiet(_flag(args, "quiet")):
+        with _signals(), _quiet(_flag(args, "quiet")), _jobs(args):
             return COMMANDS[args.command](args)
     except (SceneError, BadInput, PluginNotFoundError, MissingDependencyError, GraphValidationError) as err:
         _error(str(err))

@@ -27,6 +27,7 @@ from .backends.registry import lifters, matchers, segmenters
 from .config import Config
 from .geometry import scene_scale, select_pairs
 from .method.segment import segment
+from .parallel import parallel_map
 from .result import Result
 from .scene import Matches, Scene, SceneError
 
@@ -369,7 +370,11 @@ def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = N
     """One mask set per view from the segmenter."""
     cfg = config or Config()
     seg = resolve_backend("segmenter", segmenter or cfg.backends.segmenter, cfg)
-    return [seg(v) for v in progress_bar(scene.views, "segment", progress)]
+    views = list(scene.views)
+    bar = lambda it: progress_bar(it, "segment", progress, total=len(views))  # noqa: E731
+    if getattr(seg, "parallel", False):  # a classical segmenter: the views on several processes (graphseg.parallel)
+        return parallel_map(seg, views, wrap=bar)
+    return [seg(v) for v in bar(iter(views))]
 
 
 def compute_matches(
@@ -395,7 +400,11 @@ def compute_matches(
             scale=scale,
             auto_max_views=cfg.pairs.auto_max_views,
         )
-    return {(i, j): m(scene[i], scene[j]) for i, j in progress_bar(pairs, "match", progress)}
+    pairs = list(pairs)
+    bar = lambda it: progress_bar(it, "match", progress, total=len(pairs))  # noqa: E731
+    one = lambda ij: m(scene[ij[0]], scene[ij[1]])  # noqa: E731
+    got = parallel_map(one, pairs, wrap=bar) if getattr(m, "parallel", False) else [one(ij) for ij in bar(iter(pairs))]
+    return dict(zip(pairs, got))
 
 
 def _given_masks(scene: Scene, masks: Any) -> list[Any]:

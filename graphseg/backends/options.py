@@ -284,6 +284,9 @@ class Backend:
 
     name: ClassVar[str] = ""
     Options: ClassVar[type[BaseModel]] = NoOptions
+    #: Whether calls may run in forked worker processes (:mod:`graphseg.parallel`): each call
+    #: independent of the others, nothing held that forking breaks (threads of a loaded model).
+    parallel: ClassVar[bool] = False
 
     def __init__(self, options: BaseModel | Mapping[str, Any] | None = None, /, **kwargs: Any) -> None:
         self.options: Any = backend_options(type(self), options, kwargs)

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
+from ..parallel import parallel_map
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .ids import assign_ids, deciding_edges, operation_edges
@@ -653,8 +654,13 @@ class SceneGraph:
         if "features" in job.cfg.requires():
             feats = resolve_backend("features", features or job.cfg.backends.features, job.cfg)
         job.next_uid = int(self._state["next_uid"])
+        seg = job.backends["segmenter"]
+        need = [i for i, m in enumerate(todo_masks) if m is None]
+        if need and getattr(seg, "parallel", False):  # a classical segmenter: the views on several processes
+            for i, m in zip(need, parallel_map(seg, [todo[i] for i in need])):
+                todo_masks[i] = m
         for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", job.progress):
-            mk = m if m is not None else job.backends["segmenter"](v)
+            mk = m if m is not None else seg(v)
             job.prepared[v.name] = prepare_view(v, mk, job.cfg, uid=job.next_uid, features=None if feats is None else np.asarray(feats(v)))
             job.next_uid += 1
         order = job.old_order + [v.name for v in job.lifted]
@@ -686,8 +692,12 @@ class SceneGraph:
             else:
                 todo_pairs.append((a, b, key))
             job.active.append(key)
-        for a, b, key in progress_bar(todo_pairs, "match", job.progress):
-            job.new_pairs[key] = job.backends["matcher"](all_data[a].view, all_data[b].view)
+        matcher = job.backends["matcher"]
+        one = lambda t: matcher(all_data[t[0]].view, all_data[t[1]].view)  # noqa: E731
+        bar = lambda it: progress_bar(it, "match", job.progress, total=len(todo_pairs))  # noqa: E731
+        got = parallel_map(one, todo_pairs, wrap=bar) if getattr(matcher, "parallel", False) else [one(t) for t in bar(iter(todo_pairs))]
+        for (a, b, key), m in zip(todo_pairs, got):
+            job.new_pairs[key] = m
             job.matched.append((all_data[a].name, all_data[b].name))
         index = {d.uid: i for i, d in enumerate(all_data)}
         pair_index: dict[tuple[int, int], tuple[tuple[int, int], bool]] = {}

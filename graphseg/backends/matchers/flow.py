@@ -71,6 +71,7 @@ def flow_matches(view_i: View, view_j: View, *, max_fb_error: float, stride: int
 
 class FlowMatcher(Backend):
     """The ``flow`` matcher (see :func:`flow_matches`)."""
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "flow"
 

@@ -132,6 +132,7 @@ def lab_image(view: View, blur: float) -> np.ndarray:
 
 class ReprojectionMatcher(Backend):
     """The ``reprojection`` matcher (see :func:`reprojection_matches`)."""
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "reprojection"
 

@@ -105,6 +105,7 @@ def sift_matches(view_i: View, view_j: View, *, ratio: float, ransac_threshold: 
 
 class SiftMatcher(Backend):
     """The ``sift`` matcher (see :func:`sift_matches`)."""
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "sift"
 

@@ -137,6 +137,7 @@ class ConvexitySegmenter(Backend):
     :func:`split_concave`; the other :class:`~graphseg.backends.segmenters.geometric.GeometricOptions`
     go to :func:`geometric_segments`, which runs with its own default ``min_area``.
     """
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "convexity"
 

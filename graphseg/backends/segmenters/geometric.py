@@ -352,6 +352,11 @@ class GeometricSegmenter(Backend):
     measured in ``benchmarks/bench_ycb_views.py`` (docs/results.md).
     """
 
+    @property
+    def parallel(self) -> bool:  # type: ignore[override]
+        """Views may run in worker processes (:mod:`graphseg.parallel`), unless HED's model cuts the edges."""
+        return self.options.edges is None
+
     name = "geometric"
 
     class Options(GeometricOptions):

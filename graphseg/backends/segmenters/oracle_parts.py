@@ -68,6 +68,7 @@ def split_mask(mask: np.ndarray, k: int, *, rng: Any = None, angle: float | None
 
 class OraclePartsSegmenter(Backend):
     """EVALUATION ONLY (needs ground-truth instances): each object cut into ``parts`` random pieces."""
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "oracle-parts"
 

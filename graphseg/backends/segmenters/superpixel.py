@@ -29,6 +29,7 @@ class SuperpixelSegmenter(Backend):
 
     ``scale`` and ``min_size`` are given for 640x480 and scaled with the image area.
     """
+    parallel = True  # weight-free: views (pairs) may run in worker processes
 
     name = "superpixel"
 
