@@ -89,6 +89,38 @@ def jobs(n: int | None) -> Iterator[None]:
         _JOBS.reset(token)
 
 
+@contextmanager
+def _one_thread_each() -> Iterator[None]:
+    """OpenCV's and BLAS's thread pools at one thread while workers are forked, then as they were.
+
+    The workers share the cores already; their libraries' own pools would
+    oversubscribe them. Set here, in the parent, before the fork: a forked
+    child inherits the setting, and changing a pool inside a forked child can
+    hang (its threads were not copied).
+    """
+    limits = None
+    try:
+        from threadpoolctl import threadpool_limits
+
+        limits = threadpool_limits(1)
+    except ImportError:  # not installed: the BLAS pool keeps its size
+        pass
+    try:
+        import cv2
+
+        before = cv2.getNumThreads()
+        cv2.setNumThreads(1)
+    except ImportError:
+        cv2 = None
+    try:
+        yield
+    finally:
+        if cv2 is not None:
+            cv2.setNumThreads(before)
+        if limits is not None:
+            limits.restore_original_limits()
+
+
 def _call(i: int) -> Any:
     assert _WORK is not None
     fn, items = _WORK
@@ -127,7 +159,7 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callab
         return list(wrap(fn(x) for x in items))
     _WORK = (fn, items)
     try:
-        with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork")) as ex:
+        with _one_thread_each(), ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork")) as ex:
             return list(wrap(ex.map(_call, range(len(items)))))
     finally:
         _WORK = None
