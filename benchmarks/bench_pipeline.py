@@ -12,7 +12,9 @@ lift, segment, match, graph (``segment()``: background, compose, each edge
 stage, each graph operation), evaluate, write (outputs and the report), the
 command end to end (wall time of the fresh process) and its peak RSS. Per view
 and per pair: segment / views, match / pairs (with the matches per pair).
-The labels of the two job counts are compared byte for byte.
+The labels of the two job counts are compared byte for byte. Then ``graphseg
+demo`` and ``graphseg synth --views 8`` end to end (wall time and peak RSS of
+the command; targets: demo <= 60 s and <= 2 GB, synth < 10 s).
 
 Run it on an idle machine: the rows are wall times.
 
@@ -77,6 +79,19 @@ def run_child(scene: str, out: str, n: int) -> dict:
     return got
 
 
+def command(cmd: list[str]) -> dict:
+    """Wall seconds, peak RSS (MB, of the command's largest process) and exit status of a command run in a fresh process."""
+    t = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=ENV, cwd=ROOT)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t
+    err = proc.stderr.read().decode(errors="replace") if proc.stderr else ""
+    code = os.waitstatus_to_exitcode(status)
+    if code != 0:
+        print(err)
+    return {"command": " ".join(cmd[2:]), "seconds": round(wall, 2), "peak_rss_mb": round(usage.ru_maxrss / 1024, 1), "exit": code}
+
+
 def rows_of(name: str, n: int, r: dict) -> list[dict]:
     """The table rows of one run: one per step, then the totals."""
     job, pipe, graph = r["job"], r["pipeline"], r["graph"]
@@ -122,15 +137,20 @@ def main(argv=None) -> int:
                 runs[f"{name} / jobs {n}"] = r
                 rows += rows_of(name, n, r)
                 print(f"{name}, jobs {n}: {r['wall']:.2f} s end to end, {r['objects']} objects", flush=True)
+        commands = [
+            command([sys.executable, "-m", "graphseg.cli", "demo", "-o", str(Path(tmp) / "demo"), "--quiet"]),
+            command([sys.executable, "-m", "graphseg.cli", "synth", "-o", str(Path(tmp) / "synth8"), "--seed", "1", "--views", "8", "--quiet"]),
+        ]
     same = {name: len({r["labels_sha256"] for k, r in runs.items() if k.startswith(name)}) == 1 for name, _ in scenes}
     table = print_table(rows, ["scene", "jobs", "step", "seconds"])
     print(f"labels identical across job counts: {same}")
-    payload = {"rows": rows, "runs": runs, "labels_identical": same, "git": git_state(ROOT), "load_before": load0, "load_after": os.getloadavg(), "cores": len(os.sched_getaffinity(0))}
+    commands_table = print_table(commands, ["command", "seconds", "peak_rss_mb", "exit"])
+    payload = {"rows": rows, "runs": runs, "commands": commands, "labels_identical": same, "git": git_state(ROOT), "load_before": load0, "load_after": os.getloadavg(), "cores": len(os.sched_getaffinity(0))}
     write_json(args.json, payload)
     md = Path(args.json).with_suffix(".md")
     md.write_text(
         f"# Pipeline steps (`python benchmarks/bench_pipeline.py`)\n\nLoad average before {load0[0]:.2f}, after {os.getloadavg()[0]:.2f}; "
-        f"{payload['cores']} cores. Labels identical across job counts: {same}.\n\n" + table + "\n"
+        f"{payload['cores']} cores. Labels identical across job counts: {same}.\n\n" + table + "\n\n" + commands_table + "\n"
     )
     print(f"wrote {md}")
     return 0

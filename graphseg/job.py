@@ -251,8 +251,7 @@ def run_job(
     where = str(info.get("scene"))
     plan = plan_run(scene, cfg, segmenter=segmenter, matcher=matcher, lifter=lifter, backends=backends, check=lambda sc: check_memory(sc, where))
     scene = plan.scene  # the metrics need its points
-    if scene.meta.get("sfm"):  # structure from motion's record: views registered, the variants and focal-length draws tried
-        info["sfm"] = json.loads(json.dumps(scene.meta["sfm"], default=jsonable))
+    info.update({"sfm": json.loads(json.dumps(scene.meta["sfm"], default=jsonable))} if scene.meta.get("sfm") else {})  # registered views, variants and draws tried
     if scene.meta.get("dropped_views"):  # the lifter left views out (not registered, or wrongly posed): run.json says which
         info["views"] = [v.name for v in scene.views]
         info["dropped_views"] = list(scene.meta["dropped_views"])

@@ -147,14 +147,14 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callab
     Notes
     -----
     Forked workers inherit ``fn`` and ``items``; only the index goes to a
-    worker and the result comes back. Without ``fork`` (not Linux), or with
-    one job or one item, everything runs here.
+    worker and the result comes back. Without ``fork`` (not Linux), with one
+    job or one item, or in a daemon process, everything runs here.
     """
     global _WORK
     n = min(job_count(), len(items))
     wrap = wrap or (lambda it: it)
-    if n <= 1 or "fork" not in multiprocessing.get_all_start_methods():
-        return list(wrap(fn(x) for x in items))
+    if n <= 1 or "fork" not in multiprocessing.get_all_start_methods() or multiprocessing.current_process().daemon:
+        return list(wrap(fn(x) for x in items))  # a daemon process (a pool's worker) may not start processes
     if _WORK is not None:  # a parallel_map inside a worker's call: stay in this process
         return list(wrap(fn(x) for x in items))
     _WORK = (fn, items)

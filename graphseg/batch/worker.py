@@ -52,6 +52,7 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
     """
     from ..config import Config
     from ..job import run_job
+    from ..parallel import jobs
     from ..registry import MissingDependencyError, PluginNotFoundError
     from ..scene import SceneError
 
@@ -63,14 +64,15 @@ def run_task(task: dict[str, Any]) -> dict[str, Any]:
         be = task.get("backends") or {}
         batch = {k: task[k] for k in ("key", "scene_label", "split", "method", "label", "num_views")}
         os.makedirs(os.path.dirname(task["out"]), exist_ok=True)
-        job = run_job(
-            task["scene"],
-            task["out"],
-            cfg,
-            backends={k: be.get(k) for k in ("segmenter", "matcher", "lifter")},
-            read={"num_views": task["num_views"]},
-            run_info={"batch": batch},
-        )
+        with jobs(1):  # the batch runs its tasks in parallel already: one process per task
+            job = run_job(
+                task["scene"],
+                task["out"],
+                cfg,
+                backends={k: be.get(k) for k in ("segmenter", "matcher", "lifter")},
+                read={"num_views": task["num_views"]},
+                run_info={"batch": batch},
+            )
         rec.update(
             status="ok",
             error=None,
