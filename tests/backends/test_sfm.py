@@ -246,45 +246,6 @@ class _FakeImage:
     has_pose = True
 
 
-class _FakePoints(_FakeModel):
-    def __init__(self, k, points):
-        super().__init__(k)
-        self.points = points
-
-    def num_points3D(self):
-        return self.points
-
-
-@pytest.mark.parametrize(
-    "pooled, plain, expected, calls",
-    [
-        ((3, 13), (3, 69), "sift", ["dsp", "sift"]),  # weak (under 10 points a view): plain SIFT too, more points kept
-        ((3, 13), (3, 12), "dsp", ["dsp", "sift"]),  # plain SIFT no better: the pooled model stays
-        ((3, 30), (3, 69), "dsp", ["dsp"]),  # 10 a view: not weak, plain SIFT does not run
-        ((3, 13), (2, 500), "dsp", ["dsp", "sift"]),  # more points but fewer views: views first
-    ],
-)
-def test_a_weak_pooled_model_runs_plain_sift_too(monkeypatch, pooled, plain, expected, calls):
-    """Issue 54: on a checkered table pooled SIFT triangulated 13 points on 3 views (0 objects); plain SIFT 69."""
-    from graphseg.backends.lifters import sfm
-
-    models = {"dsp": _FakePoints(*pooled), "sift": _FakePoints(*plain), "sift-unguided": None}
-    seen = []
-
-    def fake_map(*args, variant, **kwargs):
-        seen.append(variant)
-        return models[variant]
-
-    monkeypatch.setattr(sfm, "_map", fake_map)
-    monkeypatch.setattr(sfm, "_convert", lambda rec, names: rec)
-    rec = sfm.run_sfm([np.zeros((8, 8, 3), np.uint8)] * 3, options=sfm.SfmLifter.Options(fov_range=None).run_sfm_kwargs())
-    assert rec is models[expected] and seen == calls
-    got = rec.info["registration"]
-    assert got["kept"] == expected and [t["points"] for t in got["tried"]] == [models[c].points for c in calls]
-    line = sfm.registration_warning(got, 3)
-    assert (line is not None) == (expected == "sift")
-
-
 class _FakeCalibrated(_FakeModel):
     """A model of ``k`` views whose shared camera has focal length ``f`` (80-pixel-wide images)."""
 

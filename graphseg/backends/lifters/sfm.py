@@ -658,22 +658,21 @@ def _run_sfm(
             # (docs/results.md, round 5). On weakly textured views it finds fewer matches
             # and can leave views unregistered; then plain SIFT runs too and the model
             # with more registered views is kept (ties keep the pooled one).
-            # A weak pooled model (fewer than MIN_POINTS_PER_VIEW points per view) runs plain SIFT
-            # too. Fewer than half the views registered by both: plain SIFT again without guided
+            # Fewer than half the views registered by both: plain SIFT again without guided
             # matching (its epipolar re-search follows a first two-view geometry that may be wrong).
-            best, best_record, kept = None, {}, None
+            best, best_record = None, {}
             tried = []
             for variant in VARIANTS:
                 have = 0 if best is None else int(best.num_reg_images())
-                if (have == n and not _weak(best)) or (variant == "sift-unguided" and 2 * have >= n):
+                if have == n or (variant == "sift-unguided" and 2 * have >= n):
                     break
                 record: dict[str, Any] = {}
                 rec = _map(pycolmap, root, names, Kd, run, variant=variant, ransac_seed=draw, tag=tag, hold_focal=hold, record=record)
-                tried.append({"variant": variant, "views": 0 if rec is None else int(rec.num_reg_images()), "points": _points(rec)})
-                if _better(rec, best):
-                    best, best_record, kept = rec, record, variant
+                tried.append({"variant": variant, "views": 0 if rec is None else int(rec.num_reg_images())})
+                if rec is not None and (best is None or rec.num_reg_images() > best.num_reg_images()):
+                    best, best_record = rec, record
             if tag == "":
-                registration.update(tried=tried, kept=kept)
+                registration.update(tried=tried, kept=max(tried, key=lambda t: t["views"])["variant"] if best is not None else None)
             if best is not None and best_record:
                 records[id(best)] = (best, best_record)  # the model is held, so its id stays its own
             return best
@@ -762,32 +761,6 @@ FOCAL_AGREEMENT = 0.1
 #: that two draws reproduced kept a 3-of-8-view model; issue 54): the prior is tried instead.
 FOCAL_POSSIBLE = (10.0, 150.0)
 
-#: Triangulated points per registered view below which a model is weak: plain SIFT runs too, and at
-#: equal views the model with more points is kept (on a checkered table pooled SIFT triangulated 13
-#: points on 3 views, 5.8 degrees off; plain SIFT 69, 3.0 degrees off; issue 54).
-MIN_POINTS_PER_VIEW = 10
-
-
-def _points(rec: Any) -> int:
-    """Triangulated points of a COLMAP model (0 for none, or for a model that does not count them)."""
-    count = getattr(rec, "num_points3D", None)
-    return int(count()) if callable(count) else 0
-
-
-def _weak(rec: Any) -> bool:
-    """Whether a model has fewer than :data:`MIN_POINTS_PER_VIEW` points per registered view (only a model that counts its points)."""
-    return rec is not None and callable(getattr(rec, "num_points3D", None)) and _points(rec) < MIN_POINTS_PER_VIEW * int(rec.num_reg_images())
-
-
-def _better(rec: Any, best: Any) -> bool:
-    """Whether ``rec`` replaces ``best``: more registered views, or as many and more points when ``best`` is weak."""
-    if rec is None or best is None:
-        return rec is not None
-    if rec.num_reg_images() != best.num_reg_images():
-        return bool(rec.num_reg_images() > best.num_reg_images())
-    return _weak(best) and _points(rec) > _points(best)
-
-
 #: The descriptor and matching variants of a draw, in order: SIFT with domain-size pooling; plain
 #: SIFT when views are left out; plain SIFT without guided matching when fewer than half register.
 VARIANTS = ("dsp", "sift", "sift-unguided")
@@ -838,11 +811,7 @@ def _check_focal(
 
 
 def registration_warning(registration: dict[str, Any] | None, num_views: int) -> str | None:
-    """The one warning line when structure from motion had to try more (:func:`run_sfm`'s ``info["registration"]``); None otherwise.
-
-    That is when fewer than half the views registered with SIFT (pooled, then plain) and plain
-    SIFT without guided matching was tried, or when plain SIFT replaced a weak pooled model
-    (:data:`MIN_POINTS_PER_VIEW`).
+    """The one warning line when fewer than half the views registered with SIFT (pooled, then plain) and plain SIFT without guided matching was tried (:func:`run_sfm`'s ``info["registration"]``); None otherwise.
 
     Examples
     --------
@@ -851,15 +820,9 @@ def registration_warning(registration: dict[str, Any] | None, num_views: int) ->
     'structure from motion registered 3 of 8 views (plain SIFT: 2); plain SIFT without guided matching registered 6 and was kept'
     >>> registration_warning({"tried": tried[:2], "kept": "dsp"}, 8) is None
     True
-    >>> weak = [{"variant": "dsp", "views": 3, "points": 13}, {"variant": "sift", "views": 3, "points": 69}]
-    >>> registration_warning({"tried": weak, "kept": "sift"}, 3)
-    'structure from motion triangulated only 13 points with pooled SIFT; plain SIFT triangulated 69 and was kept'
     """
     tried = {t["variant"]: t["views"] for t in (registration or {}).get("tried", [])}
-    points = {t["variant"]: t.get("points", 0) for t in (registration or {}).get("tried", [])}
     if "sift-unguided" not in tried:
-        if registration and registration.get("kept") == "sift" and tried.get("sift") == tried.get("dsp"):  # a weak pooled model replaced
-            return f"structure from motion triangulated only {points['dsp']} points with pooled SIFT; plain SIFT triangulated {points['sift']} and was kept"
         return None
     head = f"structure from motion registered {tried.get('dsp', 0)} of {num_views} views (plain SIFT: {tried.get('sift', 0)})"
     if registration.get("kept") == "sift-unguided":  # type: ignore[union-attr]
