@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
@@ -39,6 +40,7 @@ ENV = "GRAPHSEG_JOBS"
 
 _JOBS: ContextVar[int | None] = ContextVar("graphseg_jobs", default=None)
 _WORK: tuple[Callable[[Any], Any], Sequence[Any]] | None = None  # what forked workers read
+_BUSY = threading.Lock()  # one parallel_map at a time; another thread's runs in its own thread
 
 
 def _cores() -> int:
@@ -148,14 +150,15 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callab
     -----
     Forked workers inherit ``fn`` and ``items``; only the index goes to a
     worker and the result comes back. Without ``fork`` (not Linux), with one
-    job or one item, or in a daemon process, everything runs here.
+    job or one item, in a daemon process, or while another thread's map
+    runs, everything runs here.
     """
     global _WORK
     n = min(job_count(), len(items))
     wrap = wrap or (lambda it: it)
     if n <= 1 or "fork" not in multiprocessing.get_all_start_methods() or multiprocessing.current_process().daemon:
         return list(wrap(fn(x) for x in items))  # a daemon process (a pool's worker) may not start processes
-    if _WORK is not None:  # a parallel_map inside a worker's call: stay in this process
+    if _WORK is not None or not _BUSY.acquire(blocking=False):  # inside a worker's call, or another thread's map: here
         return list(wrap(fn(x) for x in items))
     _WORK = (fn, items)
     try:
@@ -163,3 +166,4 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callab
             return list(wrap(ex.map(_call, range(len(items)))))
     finally:
         _WORK = None
+        _BUSY.release()

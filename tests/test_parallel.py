@@ -95,3 +95,25 @@ def test_cli_jobs_and_a_bad_environment_variable_are_one_line_each(tmp_path, cap
     assert capsys.readouterr().err.strip().splitlines() == ["graphseg: error: environment variable GRAPHSEG_JOBS: expected an integer >= 1 (got 'many')"]
     assert main(["run", str(tmp_path / "s"), "-o", str(tmp_path / "o"), "--jobs", "2", "--quiet"]) == 0  # --jobs wins over the variable
     assert not (tmp_path / "o").exists() or (tmp_path / "o" / "result.npz").is_file()
+
+
+def test_a_worker_error_reaches_the_caller_and_a_second_thread_runs_in_its_own():
+    import threading
+
+    def boom(i):
+        if i == 2:
+            raise ValueError("view 2: bad")
+        return i
+
+    with jobs(2), pytest.raises(ValueError, match="view 2: bad"):
+        parallel_map(boom, [0, 1, 2, 3])
+    got = {}
+    parallel._BUSY.acquire()  # as if another thread's map were running
+    try:
+        t = threading.Thread(target=lambda: got.setdefault("pids", parallel_map(lambda i: os.getpid(), [0, 1, 2])))
+        with jobs(2):
+            t.start()
+            t.join()
+    finally:
+        parallel._BUSY.release()
+    assert set(got["pids"]) == {os.getpid()}
