@@ -135,3 +135,14 @@ def test_view_consistency_colour_test():
     assert (agree[0] == checked[0]).all()
     empty, none = view_consistency(walls, [K, K], poses, [[], []])
     assert not empty[0].any() and not none[0].any()  # no neighbour: nothing checked
+
+
+def test_a_disparity_range_off_the_image_gives_no_points_not_a_crash():
+    """Issue 54: cameras posed far off gave a depth range whose disparities lay beyond the image;
+    OpenCV's SGBM then tried to allocate 2**64 bytes ("internal error"). The pair now gives no point."""
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 255, (48, 64, 3), dtype=np.uint8)
+    K = np.array([[60.0, 0, 32], [0, 60.0, 24], [0, 0, 1]])
+    p1, p2, info = pair_points(img, img, K, K, np.eye(3), np.array([-0.1, 0, 0]), depth_range=(1e-4, 2e-4))  # disparities of 20,000+ px
+    assert p1.shape == p2.shape == (48, 64, 3) and np.isnan(p1).all() and np.isnan(p2).all()
+    assert info["skipped"].startswith("disparities from ") and info["skipped"].endswith("px image")

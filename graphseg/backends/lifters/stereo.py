@@ -175,7 +175,9 @@ def pair_points(
     points1, points2 : float32 ``[H, W, 3]``
         Camera-frame points of each image, NaN where no consistent disparity.
     info : dict
-        ``{"vertical", "flip", "baseline", "focal"}`` of the rectified pair.
+        ``{"vertical", "flip", "baseline", "focal"}`` of the rectified pair;
+        ``skipped`` when the disparity range lies off the rectified image (a
+        pair whose cameras are far off): then both maps are all NaN.
 
     Notes
     -----
@@ -215,6 +217,10 @@ def pair_points(
     else:
         dmin, dmax = 0, 128
     num = int(min(max(16, int(np.ceil((dmax - dmin) / 16.0)) * 16), max_disparities))
+    width = int(left.shape[1])
+    if not -width < dmin < width:  # the search range lies off the rectified image (a pair posed far off): no match can exist
+        info = {"vertical": bool(vertical), "flip": bool(flip), "baseline": baseline, "focal": f, "skipped": f"disparities from {dmin} px, off the {width} px image"}
+        return np.full((h, w, 3), np.nan, np.float32), np.full((h, w, 3), np.nan, np.float32), info
     dl = _sgbm(left, right, dmin, num, block_size)
     # the right image's disparity: mirror both images so it becomes a left image
     dr = _sgbm(np.ascontiguousarray(right[:, ::-1]), np.ascontiguousarray(left[:, ::-1]), dmin, num, block_size)[:, ::-1]
