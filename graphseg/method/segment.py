@@ -1092,6 +1092,7 @@ def finish_segmentation(
     ops = [spec.build() for spec in cfg.operations]
     steps = run_operations(ctx, [op for op in ops if op.kind != "pixels"], painted, obj, first_step=f"stage{len(stage_graphs) - 1}" if stage_graphs else "masks")
     timings.update(steps.timings)
+    t = time.perf_counter()  # "outputs": what follows the graph operations (objects graph, pixel refiners, object columns, clouds)
     objects_graph = steps.lineage.graph(meta={"scene": partition.meta.get("scene")})
     out_labels, pixel_info = refine_pixels(ctx, [op for op in ops if op.kind == "pixels"], steps.labels, timings)
     _object_columns(stage_graphs, labels, mem, steps.obj, steps.changed)
