@@ -67,10 +67,8 @@ print("RESULT " + json.dumps({
 def run_child(scene: str, out: str, n: int) -> dict:
     """One fresh process: its timings, wall time and peak RSS (MB; the process's own, its worker processes' apart)."""
     t = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-c", CHILD, scene, out, str(n)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV, cwd=ROOT)
-    stdout, stderr = proc.communicate()
+    proc = subprocess.run([sys.executable, "-c", CHILD, scene, out, str(n)], capture_output=True, text=True, env=ENV, cwd=ROOT)
     wall = time.perf_counter() - t
-    proc = subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
     if proc.returncode != 0:
         raise SystemExit(f"{scene} (jobs {n}) failed:\n{proc.stdout}\n{proc.stderr}")
     line = next(x for x in proc.stdout.splitlines() if x.startswith("RESULT "))

@@ -33,7 +33,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from typing import Any
 
-__all__ = ["job_count", "jobs", "parallel_map", "ENV"]
+__all__ = ["job_count", "jobs", "parallel_map", "backend_map", "ENV"]
 
 #: The environment variable that sets the worker count (``1``: one process).
 ENV = "GRAPHSEG_JOBS"
@@ -127,6 +127,17 @@ def _call(i: int) -> Any:
     assert _WORK is not None
     fn, items = _WORK
     return fn(items[i])
+
+
+def backend_map(backend: Any, fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callable[[Iterator[Any]], Any] | None = None) -> list[Any]:
+    """:func:`parallel_map` when ``backend`` declares ``parallel = True`` (a classical segmenter or matcher), else ``fn`` over ``items`` here.
+
+    >>> backend_map(abs, abs, [-1, 2])  # a plain function declares nothing: this process
+    [1, 2]
+    """
+    if getattr(backend, "parallel", False):
+        return parallel_map(fn, items, wrap=wrap)
+    return list((wrap or (lambda it: it))(fn(x) for x in items))
 
 
 def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callable[[Iterator[Any]], Any] | None = None) -> list[Any]:

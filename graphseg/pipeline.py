@@ -27,7 +27,7 @@ from .backends.registry import lifters, matchers, segmenters
 from .config import Config
 from .geometry import scene_scale, select_pairs
 from .method.segment import segment
-from .parallel import parallel_map
+from .parallel import backend_map
 from .result import Result
 from .scene import Matches, Scene, SceneError
 
@@ -370,11 +370,8 @@ def compute_masks(scene: Scene, segmenter: Any = None, config: Config | None = N
     """One mask set per view from the segmenter."""
     cfg = config or Config()
     seg = resolve_backend("segmenter", segmenter or cfg.backends.segmenter, cfg)
-    views = list(scene.views)
-    bar = lambda it: progress_bar(it, "segment", progress, total=len(views))  # noqa: E731
-    if getattr(seg, "parallel", False):  # a classical segmenter: the views on several processes (graphseg.parallel)
-        return parallel_map(seg, views, wrap=bar)
-    return [seg(v) for v in bar(iter(views))]
+    views = list(scene.views)  # a classical segmenter: on several processes (graphseg.parallel)
+    return backend_map(seg, seg, views, wrap=lambda it: progress_bar(it, "segment", progress, total=len(views)))
 
 
 def compute_matches(
@@ -401,9 +398,7 @@ def compute_matches(
             auto_max_views=cfg.pairs.auto_max_views,
         )
     pairs = list(pairs)
-    bar = lambda it: progress_bar(it, "match", progress, total=len(pairs))  # noqa: E731
-    one = lambda ij: m(scene[ij[0]], scene[ij[1]])  # noqa: E731
-    got = parallel_map(one, pairs, wrap=bar) if getattr(m, "parallel", False) else [one(ij) for ij in bar(iter(pairs))]
+    got = backend_map(m, lambda ij: m(scene[ij[0]], scene[ij[1]]), pairs, wrap=lambda it: progress_bar(it, "match", progress, total=len(pairs)))
     return dict(zip(pairs, got))
 
 

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
-from ..parallel import parallel_map
+from ..parallel import backend_map
 from ..result import Result
 from ..scene import Matches, Scene, SceneError, View
 from .ids import assign_ids, deciding_edges, operation_edges
@@ -246,7 +246,7 @@ class _Add:
     skipped: list[str] = field(default_factory=list)
     entries: dict[str, Any] = field(default_factory=dict)
     keys: dict[str, str] = field(default_factory=dict)
-    lifter_name: str = ""
+    recorded_lifter: str = ""
     cfg: Any = None
     backends: dict[str, Any] = field(default_factory=dict)
     old_order: list[str] = field(default_factory=list)
@@ -627,7 +627,7 @@ class SceneGraph:
         backends = resolve_backends(cfg, segmenter=segmenter, matcher=matcher, lifter=(lifter or (lifter_name if need_lifter else None)), need_lifter=need_lifter)
         job.old_order = self.view_names
         job.old_data = {n: self.view_data(n) for n in job.old_order}
-        job.lifter_name = old_lifter if lifter_name == "given" and old_lifter else lifter_name
+        job.recorded_lifter = old_lifter if lifter_name == "given" and old_lifter else lifter_name  # what the state records
         if lifter_name == "given":
             job.lifted = new_views
         elif lifter_name in PER_VIEW_LIFTERS:
@@ -656,12 +656,10 @@ class SceneGraph:
         job.next_uid = int(self._state["next_uid"])
         seg = job.backends["segmenter"]
         need = [i for i, m in enumerate(todo_masks) if m is None]
-        if need and getattr(seg, "parallel", False):  # a classical segmenter: the views on several processes
-            for i, m in zip(need, parallel_map(seg, [todo[i] for i in need])):
-                todo_masks[i] = m
+        for i, m in zip(need, backend_map(seg, seg, [todo[i] for i in need])):  # a classical segmenter: on several processes
+            todo_masks[i] = m
         for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", job.progress):
-            mk = m if m is not None else seg(v)
-            job.prepared[v.name] = prepare_view(v, mk, job.cfg, uid=job.next_uid, features=None if feats is None else np.asarray(feats(v)))
+            job.prepared[v.name] = prepare_view(v, m, job.cfg, uid=job.next_uid, features=None if feats is None else np.asarray(feats(v)))
             job.next_uid += 1
         order = job.old_order + [v.name for v in job.lifted]
         data = [job.prepared.get(n, job.old_data.get(n)) for n in order]
@@ -694,8 +692,7 @@ class SceneGraph:
             job.active.append(key)
         matcher = job.backends["matcher"]
         one = lambda t: matcher(all_data[t[0]].view, all_data[t[1]].view)  # noqa: E731
-        bar = lambda it: progress_bar(it, "match", job.progress, total=len(todo_pairs))  # noqa: E731
-        got = parallel_map(one, todo_pairs, wrap=bar) if getattr(matcher, "parallel", False) else [one(t) for t in bar(iter(todo_pairs))]
+        got = backend_map(matcher, one, todo_pairs, wrap=lambda it: progress_bar(it, "match", job.progress, total=len(todo_pairs)))
         for (a, b, key), m in zip(todo_pairs, got):
             job.new_pairs[key] = m
             job.matched.append((all_data[a].name, all_data[b].name))
@@ -767,7 +764,7 @@ class SceneGraph:
                 "object_ids": object_ids,
                 "next_uid": job.next_uid,
                 "next_pid": next_pid,
-                "lifter": job.lifter_name,
+                "lifter": job.recorded_lifter,
                 "objects": {**(state.get("objects") or {}), **{str(k): v for k, v in job.gt_names.items()}},
                 "history": [*state["history"], entry],
                 "inputs": job.inputs,
