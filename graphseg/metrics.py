@@ -104,14 +104,26 @@ def contingency(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray], valid: Seq
         p_all.append(np.asarray(p, np.int64)[sel])
     g = np.concatenate(g_all) if g_all else np.zeros(0, np.int64)
     p = np.concatenate(p_all) if p_all else np.zeros(0, np.int64)
-    gt_ids = np.union1d([0], g)
-    pred_ids = np.union1d([0], p)
-    gi = np.searchsorted(gt_ids, g)
-    pi = np.searchsorted(pred_ids, p)
+    gt_ids, gi = _dense_ids(g)
+    pred_ids, pi = _dense_ids(p)
     a, b, c = pair_counts(gi, pi, max(len(gt_ids), len(pred_ids)))
     table = np.zeros((len(gt_ids), len(pred_ids)), np.int64)
     table[a, b] = c
     return table, gt_ids, pred_ids
+
+
+def _dense_ids(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The sorted ids of ``x`` with 0 (int64) and each element's index among them: ``union1d`` and
+    ``searchsorted``, by counting when the ids are small non-negative integers (labels are), O(N + max id)."""
+    if x.size and x.min() >= 0 and x.max() <= 4 * x.size + (1 << 16):
+        present = np.bincount(x)
+        present[0] = 1
+        ids = np.flatnonzero(present)
+        lut = np.zeros(len(present), np.int64)
+        lut[ids] = np.arange(len(ids))
+        return ids.astype(np.int64), lut[x]
+    ids = np.union1d([0], x)
+    return ids, np.searchsorted(ids, x)
 
 
 def mean_iou(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray], points: Sequence[np.ndarray]) -> float | None:

@@ -85,6 +85,64 @@ OBJECTS_FILE = "objects.json"
 MESH_METHODS = ("tsdf", "poisson")
 
 
+#: Modules that open3d's ``__init__`` imports and graphseg never uses: its ML datasets (which import
+#: scikit-learn and pandas) and its Plotly viewer (which imports dash and IPython). Together they are
+#: about 2 s of a 2.5 s import. :func:`load_open3d` imports open3d without them; a later
+#: ``import open3d.ml`` or ``open3d.visualization.draw_plotly(...)`` imports them as usual.
+OPEN3D_DEFERRED = ("open3d.ml", "open3d.visualization.draw_plotly")
+
+
+def _deferred_plotly(name: str) -> Any:
+    """A stand-in for ``open3d.visualization.<name>`` that imports the Plotly viewer on first call."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        import importlib
+
+        vis = sys.modules["open3d.visualization"]
+        module = importlib.import_module("open3d.visualization.draw_plotly")
+        for attr in ("draw_plotly", "draw_plotly_server"):  # as open3d's own import leaves them: the functions
+            setattr(vis, attr, getattr(module, attr))
+        return getattr(module, name)(*args, **kwargs)
+
+    call.__name__ = call.__qualname__ = name
+    return call
+
+
+def _open3d_getattr(name: str) -> Any:
+    """``open3d.ml`` on first access (module ``__getattr__``, PEP 562)."""
+    if name == "ml":
+        import importlib
+
+        return importlib.import_module("open3d.ml")
+    raise AttributeError(f"module 'open3d' has no attribute {name!r}")
+
+
+def _import_open3d_deferred() -> Any:
+    """``import open3d`` without the modules of :data:`OPEN3D_DEFERRED`, which load on first use instead.
+
+    Empty modules stand in for them during the import and are removed right
+    after, so nothing of them stays behind in ``sys.modules``.
+    """
+    import types
+
+    placeholders = {name: types.ModuleType(name) for name in OPEN3D_DEFERRED}
+    placeholders["open3d.ml"].__path__ = []
+    for attr in ("draw_plotly", "draw_plotly_server"):
+        setattr(placeholders["open3d.visualization.draw_plotly"], attr, _deferred_plotly(attr))
+    sys.modules.update(placeholders)
+    try:
+        import open3d
+    finally:
+        for name, module in placeholders.items():
+            if sys.modules.get(name) is module:
+                del sys.modules[name]
+    if open3d.__dict__.get("ml") is placeholders["open3d.ml"]:
+        del open3d.ml
+    if "ml" not in open3d.__dict__ and "__getattr__" not in open3d.__dict__:
+        open3d.__getattr__ = _open3d_getattr
+    return open3d
+
+
 def load_open3d() -> Any:
     """Import open3d (extra ``open3d``), or raise :class:`MissingDependencyError` saying what failed.
 
@@ -94,6 +152,8 @@ def load_open3d() -> Any:
     slow fusion down 10-20 times on a busy machine); it takes effect only if
     no OpenMP runtime was loaded before. A wheel that is installed but cannot load one of its
     system libraries (open3d 0.20 needs ``libusb-1.0.so.0``) is named as such.
+    When graphseg imports open3d first, the modules it never uses
+    (:data:`OPEN3D_DEFERRED`) load on their first use instead (2 s less).
     """
     if "open3d" not in sys.modules:
         # open3d's OpenMP threads spin while they wait: on a busy machine one
@@ -102,7 +162,10 @@ def load_open3d() -> Any:
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*CUDA.*", category=ImportWarning)
-            import open3d
+            if "open3d" in sys.modules:
+                import open3d
+            else:
+                open3d = _import_open3d_deferred()
     except ImportError as err:
         if getattr(err, "name", None) == "open3d" or "No module named 'open3d'" in str(err):
             raise MissingDependencyError("this feature needs 'open3d': pip install \"graphseg[open3d]\"") from err
@@ -207,8 +270,8 @@ def upright_box(points: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndar
     b = np.cross(n, a)
     xy = np.c_[P @ a, P @ b]
     try:
-        hull = xy[ConvexHull(xy).vertices] if len(np.unique(xy.round(12), axis=0)) >= 3 else xy
-    except QhullError:  # collinear points
+        hull = xy[ConvexHull(xy).vertices]
+    except QhullError:  # fewer than 3 distinct points, or all on a line
         hull = xy
     best = (np.inf, 0.0)
     edges = np.roll(hull, -1, axis=0) - hull if len(hull) > 1 else np.array([[1.0, 0.0]])

@@ -116,3 +116,16 @@ def test_evaluate_counts_phantom_objects():
     assert (clean["num_pred"], phantom["num_pred"], phantom["num_gt"]) == (2, 4, 2)
     assert clean["mean"]["pq"] == 1.0
     assert phantom["mean"]["pq"] == pytest.approx(2 / 3) and phantom["panoptic"] == {"tp": 2, "fp": 2, "fn": 0}
+
+
+@pytest.mark.parametrize("offset", [0, 10**12, -7])
+def test_contingency_ids_of_any_size(offset):
+    """Small ids are counted, huge or negative ones sorted: the same table either way."""
+    pred = [np.array([[offset + 3, offset + 3, 0, offset + 9]])]
+    gt = [np.array([[1, 2, 2, 0]])]
+    table, gt_ids, pred_ids = contingency(pred, gt)
+    assert gt_ids.tolist() == [0, 1, 2]
+    assert pred_ids.tolist() == sorted({0, offset + 3, offset + 9})
+    col = {v: i for i, v in enumerate(pred_ids.tolist())}
+    assert table[1, col[offset + 3]] == 1 and table[2, col[offset + 3]] == 1 and table[2, col[0]] == 1 and table[0, col[offset + 9]] == 1
+    assert table.sum() == 4

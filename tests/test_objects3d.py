@@ -272,3 +272,25 @@ def test_run_output_holds_objects_json_and_meshes(boxes, tmp_path):
         assert all((out / o["mesh"]).is_file() for o in doc["objects"])
     files = read_marker(out)["files"]
     assert OBJECTS_FILE in files and all(o["mesh"] in files for o in doc["objects"] if o["mesh"])
+
+
+DEFERRED_CHECK = r"""
+import sys
+from graphseg.objects3d import load_open3d
+o3d = load_open3d()
+skipped = sorted(m for m in ("sklearn", "dash", "open3d.ml", "open3d.visualization.draw_plotly") if m in sys.modules)
+volume = o3d.pipelines.integration.ScalableTSDFVolume  # what graphseg uses is there
+ml = o3d.ml  # a user's open3d.ml still imports, on first use
+import open3d.ml.datasets
+print(skipped, type(ml).__name__, ml.__name__, "sklearn" in sys.modules, callable(o3d.visualization.draw_plotly))
+"""
+
+
+def test_load_open3d_defers_unused_modules_and_keeps_them_importable():
+    import subprocess
+    import sys
+
+    pytest.importorskip("open3d")
+    proc = subprocess.run([sys.executable, "-c", DEFERRED_CHECK], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip().splitlines()[-1] == "[] module open3d.ml True True"
