@@ -17,7 +17,8 @@ The rules (``RULES``):
   ``registry``, itself, the dependency-free helpers ``quiet`` (silences native libraries'
   logging) and ``validation`` (did-you-mean and finiteness checks of options)
   and ``background_config`` (the table-plane settings the geometric segmenter
-  shares with the background step);
+  shares with the background step), and ``parallel`` (forked workers, for
+  a lifter's own per-view and per-pair steps);
 * the renderers (``report``, ``render_audit``) compute nothing: they import no
   graphseg module but each other;
 * nothing imports ``graphseg.cli``;
@@ -70,7 +71,7 @@ _LOW_FORBIDDEN = (
     "graphseg.audit",
     "graphseg.output",
 )
-_BACKENDS_MAY = ("graphseg.backends", "graphseg.scene", "graphseg.geometry", "graphseg.io", "graphseg.registry", "graphseg.quiet", "graphseg.validation", "graphseg.background_config")
+_BACKENDS_MAY = ("graphseg.backends", "graphseg.scene", "graphseg.geometry", "graphseg.io", "graphseg.registry", "graphseg.quiet", "graphseg.validation", "graphseg.background_config", "graphseg.parallel")
 _RENDERERS = ("graphseg.report", "graphseg.render_audit")
 #: Plain data and helpers every layer may import.
 _PLAIN = ("graphseg.config", "graphseg.presets", "graphseg.published", "graphseg.background_config", "graphseg.validation", "graphseg.registry")

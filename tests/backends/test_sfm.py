@@ -761,3 +761,21 @@ def test_the_held_focal_length_is_the_prior_field_of_view(tmp_path):
         assert np.isclose(cam.params[0], expected) and cam.has_prior_focal_length
         assert not inc.ba_refine_focal_length and not inc.mapper.abs_pose_refine_focal_length
     assert sfm.SfmLifter.Options().run_sfm_kwargs()["prior_fov"] == 65.0
+
+
+def test_lift_on_one_process_and_two_gives_the_same_bytes(plain_lift):
+    """Stereo pairs and the per-view fill run on forked workers: the same point maps as one process (issue 55)."""
+    from graphseg.parallel import jobs
+
+    photos, lifted = plain_lift
+    with jobs(2):
+        two = SfmLifter()(photos)
+    with jobs(1):
+        one = SfmLifter()(photos)
+    assert len(one.views) == len(two.views) == len(lifted.views)
+    for a, b in zip(one.views, two.views):
+        for field in ("points", "confidence", "K", "cam_to_world"):
+            x, y = getattr(a, field), getattr(b, field)
+            assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), (a.name, field)
+        assert a.meta == b.meta
+    assert one.meta["sfm"] == two.meta["sfm"]

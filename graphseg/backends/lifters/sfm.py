@@ -43,6 +43,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from ...parallel import parallel_map
 from ...registry import require
 from ...scene import Scene, SceneError
 from ..options import Backend
@@ -1574,8 +1575,8 @@ class SfmLifter(Backend):
             info = {}
         seeds = sparse_point_maps(rec.points, rec.observations, (h, w), radius=0)
         sparse = sparse_point_maps(rec.points, rec.observations, (h, w), radius=o.sparse_radius)
-        views = []
-        for i, v in enumerate(scene.views):
+
+        def one_view(i: int) -> tuple[np.ndarray, np.ndarray, float]:
             p = pts[i].copy()
             c = conf[i].copy()
             dense = np.isfinite(p).all(-1)
@@ -1587,8 +1588,12 @@ class SfmLifter(Backend):
             rest = ~np.isfinite(p).all(-1) & np.isfinite(sparse[i]).all(-1)
             p[rest] = sparse[i][rest]
             c[rest] = 0.5
-            extra = {"fill_confidence": float(o.fill_confidence)} if o.fill else {}  # what nothing measured gets (objects.min_measured)
-            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": float(dense.mean()), **extra}))
+            return p, c, float(dense.mean())
+
+        views = []
+        extra = {"fill_confidence": float(o.fill_confidence)} if o.fill else {}  # what nothing measured gets (objects.min_measured)
+        for v, i, (p, c, dense_fraction) in zip(scene.views, range(len(scene)), parallel_map(one_view, range(len(scene)))):  # each view on its own
+            views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": dense_fraction, **extra}))
         meta = {
             **scene.meta,
             "scale": scale,

@@ -28,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from ...parallel import parallel_map
+
 __all__ = ["pair_points", "SgbmOptions", "stereo_depths", "fuse_depths", "sparse_point_maps", "select_neighbours", "view_consistency"]
 
 
@@ -339,13 +341,18 @@ def stereo_depths(
     nbrs = select_neighbours(poses, max_angle=max_pair_angle, max_neighbours=max_neighbours)
     pairs = sorted({(min(i, j), max(i, j)) for i in range(n) for j in nbrs[i]})
     est: list[list[np.ndarray]] = [[] for _ in range(n)]
-    for i, j in pairs:
+
+    def one_pair(pair: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        i, j = pair
         Ti, Tj = np.asarray(poses[i], np.float64), np.asarray(poses[j], np.float64)
         rel = np.linalg.inv(Tj) @ Ti  # camera i -> camera j
         rng_ij = None
         if depth_ranges is not None and depth_ranges[i] is not None and depth_ranges[j] is not None:
             rng_ij = (min(depth_ranges[i][0], depth_ranges[j][0]), max(depth_ranges[i][1], depth_ranges[j][1]))  # type: ignore[index]
         p1, p2, _ = pair_points(images[i], images[j], Ks[i], Ks[j], rel[:3, :3], rel[:3, 3], D1=dists[i], D2=dists[j], depth_range=rng_ij)
+        return p1, p2
+
+    for (i, j), (p1, p2) in zip(pairs, parallel_map(one_pair, pairs)):  # each pair on its own: any order, same result
         est[i].append(p1)
         est[j].append(p2)
     pts, conf = [], []
