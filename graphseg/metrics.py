@@ -115,6 +115,7 @@ def contingency(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray], valid: Seq
 def _dense_ids(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The sorted ids of ``x`` with 0 (int64) and each element's index among them: ``union1d`` and
     ``searchsorted``, by counting when the ids are small non-negative integers (labels are), O(N + max id)."""
+    x = np.asarray(x, np.int64)
     if x.size and x.min() >= 0 and x.max() <= 4 * x.size + (1 << 16):
         present = np.bincount(x)
         present[0] = 1

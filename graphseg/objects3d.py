@@ -117,18 +117,39 @@ def _open3d_getattr(name: str) -> Any:
     raise AttributeError(f"module 'open3d' has no attribute {name!r}")
 
 
+def _lazy_module(name: str) -> None:
+    """Put module ``name`` in ``sys.modules`` as a lazily loaded module (its code runs on first attribute access).
+
+    An explicit ``import name`` then finds it there and, as with a module
+    imported the usual way, leaves the names its parent package bound alone.
+    """
+    import importlib.util
+
+    spec = importlib.util.find_spec(name)
+    if spec is None or spec.loader is None:
+        return
+    spec.loader = importlib.util.LazyLoader(spec.loader)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+
+
 def _import_open3d_deferred() -> Any:
     """``import open3d`` without the modules of :data:`OPEN3D_DEFERRED`, which load on first use instead.
 
-    Empty modules stand in for them during the import and are removed right
-    after, so nothing of them stays behind in ``sys.modules``.
+    Empty modules stand in for them during the import (only for those not
+    imported already). Afterwards ``open3d.ml`` imports on first access and
+    the Plotly viewer's module is in ``sys.modules`` as a lazily loaded
+    module, so nothing of the stand-ins stays behind.
     """
     import types
 
-    placeholders = {name: types.ModuleType(name) for name in OPEN3D_DEFERRED}
-    placeholders["open3d.ml"].__path__ = []
-    for attr in ("draw_plotly", "draw_plotly_server"):
-        setattr(placeholders["open3d.visualization.draw_plotly"], attr, _deferred_plotly(attr))
+    placeholders = {name: types.ModuleType(name) for name in OPEN3D_DEFERRED if name not in sys.modules}
+    if "open3d.ml" in placeholders:
+        placeholders["open3d.ml"].__path__ = []
+    if "open3d.visualization.draw_plotly" in placeholders:
+        for attr in ("draw_plotly", "draw_plotly_server"):
+            setattr(placeholders["open3d.visualization.draw_plotly"], attr, _deferred_plotly(attr))
     sys.modules.update(placeholders)
     try:
         import open3d
@@ -136,7 +157,9 @@ def _import_open3d_deferred() -> Any:
         for name, module in placeholders.items():
             if sys.modules.get(name) is module:
                 del sys.modules[name]
-    if open3d.__dict__.get("ml") is placeholders["open3d.ml"]:
+    if "open3d.visualization.draw_plotly" in placeholders and "open3d.visualization.draw_plotly" not in sys.modules:
+        _lazy_module("open3d.visualization.draw_plotly")
+    if "open3d.ml" in placeholders and open3d.__dict__.get("ml") is placeholders["open3d.ml"]:
         del open3d.ml
     if "ml" not in open3d.__dict__ and "__getattr__" not in open3d.__dict__:
         open3d.__getattr__ = _open3d_getattr

@@ -278,11 +278,13 @@ DEFERRED_CHECK = r"""
 import sys
 from graphseg.objects3d import load_open3d
 o3d = load_open3d()
-skipped = sorted(m for m in ("sklearn", "dash", "open3d.ml", "open3d.visualization.draw_plotly") if m in sys.modules)
+skipped = sorted(m for m in ("sklearn", "pandas", "dash", "open3d.ml") if m in sys.modules)  # the Plotly viewer's module is there, not loaded
 volume = o3d.pipelines.integration.ScalableTSDFVolume  # what graphseg uses is there
 ml = o3d.ml  # a user's open3d.ml still imports, on first use
 import open3d.ml.datasets
-print(skipped, type(ml).__name__, ml.__name__, "sklearn" in sys.modules, callable(o3d.visualization.draw_plotly))
+import open3d.visualization.draw_plotly  # an explicit import leaves the function in place, as plain open3d does
+from open3d.visualization.draw_plotly import get_plotly_fig
+print(skipped, type(ml).__name__, ml.__name__, "sklearn" in sys.modules, callable(o3d.visualization.draw_plotly) and callable(get_plotly_fig))
 """
 
 
