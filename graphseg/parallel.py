@@ -123,6 +123,11 @@ def _one_thread_each() -> Iterator[None]:
             limits.restore_original_limits()
 
 
+def _here(fn: Callable[[Any], Any], items: Sequence[Any], wrap: Callable[[Iterator[Any]], Any] | None) -> list[Any]:
+    """``fn`` over ``items`` in this process, the results through ``wrap``."""
+    return list((wrap or (lambda it: it))(fn(x) for x in items))
+
+
 def _call(i: int) -> Any:
     assert _WORK is not None
     fn, items = _WORK
@@ -137,7 +142,7 @@ def backend_map(backend: Any, fn: Callable[[Any], Any], items: Sequence[Any], *,
     """
     if getattr(backend, "parallel", False):
         return parallel_map(fn, items, wrap=wrap)
-    return list((wrap or (lambda it: it))(fn(x) for x in items))
+    return _here(fn, items, wrap)
 
 
 def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callable[[Iterator[Any]], Any] | None = None) -> list[Any]:
@@ -166,15 +171,14 @@ def parallel_map(fn: Callable[[Any], Any], items: Sequence[Any], *, wrap: Callab
     """
     global _WORK
     n = min(job_count(), len(items))
-    wrap = wrap or (lambda it: it)
     if n <= 1 or "fork" not in multiprocessing.get_all_start_methods() or multiprocessing.current_process().daemon:
-        return list(wrap(fn(x) for x in items))  # a daemon process (a pool's worker) may not start processes
+        return _here(fn, items, wrap)  # a daemon process (a pool's worker) may not start processes
     if _WORK is not None or not _BUSY.acquire(blocking=False):  # inside a worker's call, or another thread's map: here
-        return list(wrap(fn(x) for x in items))
+        return _here(fn, items, wrap)
     _WORK = (fn, items)
     try:
         with _one_thread_each(), ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork")) as ex:
-            return list(wrap(ex.map(_call, range(len(items)))))
+            return list((wrap or (lambda it: it))(ex.map(_call, range(len(items)))))
     finally:
         _WORK = None
         _BUSY.release()

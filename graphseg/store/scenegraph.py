@@ -656,9 +656,10 @@ class SceneGraph:
         job.next_uid = int(self._state["next_uid"])
         seg = job.backends["segmenter"]
         need = [i for i, m in enumerate(todo_masks) if m is None]
-        for i, m in zip(need, backend_map(seg, seg, [todo[i] for i in need])):  # a classical segmenter: on several processes
+        segmented = backend_map(seg, seg, [todo[i] for i in need], wrap=lambda it: progress_bar(it, "segment", job.progress, total=len(need)))  # a classical segmenter: on several processes
+        for i, m in zip(need, segmented):
             todo_masks[i] = m
-        for v, m in progress_bar(list(zip(todo, todo_masks)), "segment", job.progress):
+        for v, m in zip(todo, todo_masks):
             job.prepared[v.name] = prepare_view(v, m, job.cfg, uid=job.next_uid, features=None if feats is None else np.asarray(feats(v)))
             job.next_uid += 1
         order = job.old_order + [v.name for v in job.lifted]

@@ -59,6 +59,7 @@ __all__ = [
     "CAMERA_MODELS",
     "not_registered_message",
     "field_of_view",
+    "focal_length",
     "focal_plausible",
     "prior_intrinsics",
     "focal_check_warning",
@@ -445,6 +446,17 @@ def field_of_view(K: np.ndarray, size: tuple[int, int]) -> float:
     w, h = int(size[0]), int(size[1])
     side, f = (w, K[0, 0]) if w >= h else (h, K[1, 1])
     return float(np.degrees(2.0 * np.arctan2(0.5 * side, float(f))))
+
+
+def focal_length(fov: float, size: tuple[int, int]) -> float:
+    """The focal length (pixels) of a field of view ``fov`` (degrees) across the larger side of ``size`` ``(width, height)``: :func:`field_of_view` inverted.
+
+    Examples
+    --------
+    >>> round(focal_length(90.0, (640, 480)), 6)
+    320.0
+    """
+    return float((max(int(size[0]), int(size[1])) / 2) / np.tan(np.radians(fov) / 2))
 
 
 def focal_plausible(K: np.ndarray, size: tuple[int, int], fov_range: tuple[float, float]) -> bool:
@@ -1057,7 +1069,7 @@ def _set_focal(pycolmap: Any, db_path: Path, fov: float) -> None:
         for cam in db.read_all_cameras():
             w, h = int(cam.width), int(cam.height)
             params = np.array(cam.params, np.float64)
-            params[cam.focal_length_idxs()] = (max(w, h) / 2) / np.tan(np.radians(fov) / 2)
+            params[cam.focal_length_idxs()] = focal_length(fov, (w, h))
             cam.params = params
             db.update_camera(cam)
 
@@ -1095,7 +1107,7 @@ def _hold_prior_focal(pycolmap: Any, db_path: Path, inc: Any, fov: float | None 
     with pycolmap.Database.open(db_path) as db:
         for cam in db.read_all_cameras():
             w, h = int(cam.width), int(cam.height)
-            f = float(prior_intrinsics(w, h)[0, 0]) if fov is None else (max(w, h) / 2) / float(np.tan(np.radians(fov) / 2))
+            f = float(prior_intrinsics(w, h)[0, 0]) if fov is None else focal_length(fov, (w, h))
             prior = pycolmap.Camera.create_from_model_id(cam.camera_id, cam.model, f, w, h)
             cam.params = prior.params
             cam.has_prior_focal_length = True
@@ -1592,7 +1604,7 @@ class SfmLifter(Backend):
 
         views = []
         extra = {"fill_confidence": float(o.fill_confidence)} if o.fill else {}  # what nothing measured gets (objects.min_measured)
-        for v, i, (p, c, dense_fraction) in zip(scene.views, range(len(scene)), parallel_map(one_view, range(len(scene)))):  # each view on its own
+        for i, (v, (p, c, dense_fraction)) in enumerate(zip(scene.views, parallel_map(one_view, range(len(scene))))):  # each view on its own
             views.append(v.replace(points=p, confidence=c, K=Ks[i], cam_to_world=poses[i], meta={**v.meta, "dense_fraction": dense_fraction, **extra}))
         meta = {
             **scene.meta,
